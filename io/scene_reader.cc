@@ -1,0 +1,373 @@
+#include "io/scene_reader.hh"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace rodmesh {
+namespace {
+
+using json = nlohmann::json;
+
+thread_local std::vector<std::string> g_warnings;
+
+// A JSON node together with its key path ("poses[1].fixed[0].vertex"), so that
+// every error can say exactly where it is.
+struct Node {
+  const json* j;
+  std::string path;
+  const std::string* file;
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InputError(*file + ": " + (path.empty() ? std::string("<root>") : path) + ": " + what);
+  }
+  bool has(const char* key) const { return j->is_object() && j->contains(key); }
+  Node operator[](const char* key) const {
+    if (!j->is_object()) fail("expected an object");
+    auto it = j->find(key);
+    if (it == j->end()) {
+      Node missing{j, path.empty() ? key : path + "." + key, file};
+      missing.fail("missing required key");
+    }
+    return Node{&*it, path.empty() ? key : path + "." + key, file};
+  }
+  Node at(std::size_t i) const { return Node{&(*j)[i], path + "[" + std::to_string(i) + "]", file}; }
+  std::size_t arraySize() const {
+    if (!j->is_array()) fail("expected an array, got " + typeName());
+    return j->size();
+  }
+  std::string typeName() const { return std::string(j->type_name()) + " " + shortDump(); }
+  std::string shortDump() const {
+    std::string s = j->dump();
+    if (s.size() > 60) s = s.substr(0, 57) + "...";
+    return s;
+  }
+  double number() const {
+    if (!j->is_number()) fail("expected a number, got " + typeName());
+    double v = j->get<double>();
+    if (!std::isfinite(v)) fail("expected a finite number, got " + shortDump());
+    return v;
+  }
+  int index(std::size_t count, const char* what) const {
+    if (!j->is_number_integer() && !j->is_number_unsigned()) fail("expected an integer " + std::string(what) + " index, got " + typeName());
+    long long v = j->get<long long>();
+    if (v < 0 || v >= static_cast<long long>(count))
+      fail(std::string(what) + " index " + std::to_string(v) + " out of range [0, " + std::to_string(count) + ")");
+    return static_cast<int>(v);
+  }
+  std::string string() const {
+    if (!j->is_string()) fail("expected a string, got " + typeName());
+    return j->get<std::string>();
+  }
+  Vec3 vec3() const {
+    if (!j->is_array() || j->size() != 3) fail("expected an array of 3 numbers, got " + shortDump());
+    return Vec3(at(0).number(), at(1).number(), at(2).number());
+  }
+  Vec2 vec2() const {
+    if (!j->is_array() || j->size() != 2) fail("expected an array of 2 numbers, got " + shortDump());
+    return Vec2(at(0).number(), at(1).number());
+  }
+};
+
+std::string fmt(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+void warnUnknownKeys(const Node& n, std::initializer_list<const char*> known) {
+  if (!n.j->is_object()) return;
+  std::set<std::string> k(known.begin(), known.end());
+  for (auto it = n.j->begin(); it != n.j->end(); ++it)
+    if (!k.count(it.key()))
+      g_warnings.push_back(*n.file + ": " + (n.path.empty() ? "" : n.path + ".") + it.key() + ": unknown key ignored");
+}
+
+std::vector<Vec3> readVec3List(const Node& n, std::size_t expected, const char* what) {
+  std::size_t size = n.arraySize();
+  if (expected != 0 && size != expected)
+    n.fail("expected " + std::to_string(expected) + " " + what + " (one per vertex), got " + std::to_string(size));
+  std::vector<Vec3> out;
+  out.reserve(size);
+  for (std::size_t i = 0; i < size; ++i) out.push_back(n.at(i).vec3());
+  return out;
+}
+
+void readRadiusPair(const Node& n, Vec2& r) {
+  r = n.vec2();
+  for (int k = 0; k < 2; ++k)
+    if (!(r[k] > 0.0)) n.at(k).fail("radius must be positive, got " + fmt(r[k]));
+}
+
+}  // namespace
+
+const std::vector<std::string>& lastSceneWarnings() { return g_warnings; }
+
+Scene parseScene(const std::string& text, const std::string& path) {
+  g_warnings.clear();
+  json doc;
+  try {
+    doc = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // Translate the byte offset into line:column for humans.
+    std::size_t line = 1, col = 1;
+    for (std::size_t i = 0; i < e.byte && i < text.size(); ++i) {
+      if (text[i] == '\n') { ++line; col = 1; } else { ++col; }
+    }
+    throw InputError(path + ": not valid JSON (line " + std::to_string(line) + ", column " + std::to_string(col) +
+                     "): " + e.what());
+  }
+
+  Scene s;
+  s.sourcePath = path;
+  s.sourceText = text;
+  Node root{&doc, "", &s.sourcePath};
+  if (!doc.is_object()) root.fail("expected a JSON object at the top level");
+  warnUnknownKeys(root, {"format", "material", "vertices", "normals", "rods", "radius", "radii", "gravity", "effects",
+                         "poses", "design", "name", "description", "units"});
+
+  {
+    Node f = root["format"];
+    std::string v = f.string();
+    if (v != "rodmesh-scene/1") f.fail("unsupported format \"" + v + "\" (expected \"rodmesh-scene/1\")");
+  }
+
+  // Material.
+  {
+    Node m = root["material"];
+    if (!m.j->is_object()) m.fail("expected an object, got " + m.typeName());
+    warnUnknownKeys(m, {"young_modulus", "poisson_ratio", "density"});
+    Node e = m["young_modulus"];
+    s.material.youngModulus = e.number();
+    if (!(s.material.youngModulus > 0)) e.fail("Young's modulus must be positive, got " + fmt(s.material.youngModulus));
+    Node nu = m["poisson_ratio"];
+    s.material.poissonRatio = nu.number();
+    if (!(s.material.poissonRatio > -1.0 && s.material.poissonRatio < 0.5))
+      nu.fail("Poisson ratio must lie in (-1, 0.5), got " + fmt(s.material.poissonRatio));
+    Node rho = m["density"];
+    s.material.density = rho.number();
+    if (!(s.material.density > 0)) rho.fail("density must be positive, got " + fmt(s.material.density));
+  }
+
+  // Vertices.
+  s.vertices = readVec3List(root["vertices"], 0, "positions");
+  const std::size_t nv = s.vertices.size();
+  if (nv < 2) root["vertices"].fail("need at least 2 vertices, got " + std::to_string(nv));
+
+  if (root.has("normals")) {
+    Node nn = root["normals"];
+    s.normals = readVec3List(nn, nv, "normals");
+    for (std::size_t i = 0; i < nv; ++i) {
+      double len = s.normals[i].norm();
+      if (!(len > 1e-12)) nn.at(i).fail("normal must be non-zero");
+      s.normals[i] /= len;
+    }
+  }
+
+  // Rods, and the rule that rods meet only at their end vertices.
+  {
+    Node rods = root["rods"];
+    std::size_t nr = rods.arraySize();
+    if (nr == 0) rods.fail("need at least one rod");
+    std::vector<int> interiorUse(nv, -1);  // rod using the vertex as an interior node
+    std::vector<int> endUse(nv, -1);       // some rod ending at the vertex
+    for (std::size_t r = 0; r < nr; ++r) {
+      Node rn = rods.at(r);
+      if (!rn.j->is_object()) rn.fail("expected an object with key \"vertices\", got " + rn.typeName());
+      warnUnknownKeys(rn, {"vertices", "normal", "name"});
+      Node vs = rn["vertices"];
+      std::size_t k = vs.arraySize();
+      if (k < 2) vs.fail("a rod needs at least 2 vertices (one edge), got " + std::to_string(k));
+      Rod rod;
+      std::set<int> seen;
+      for (std::size_t i = 0; i < k; ++i) {
+        int v = vs.at(i).index(nv, "vertex");
+        if (!seen.insert(v).second) vs.at(i).fail("vertex " + std::to_string(v) + " appears twice in the same rod");
+        rod.vertices.push_back(v);
+      }
+      for (std::size_t i = 0; i + 1 < k; ++i) {
+        double len = (s.vertices[rod.vertices[i + 1]] - s.vertices[rod.vertices[i]]).norm();
+        if (!(len > 0.0))
+          vs.at(i + 1).fail("zero-length edge between vertices " + std::to_string(rod.vertices[i]) + " and " +
+                            std::to_string(rod.vertices[i + 1]));
+      }
+      for (std::size_t i = 0; i < k; ++i) {
+        int v = rod.vertices[i];
+        bool end = (i == 0 || i + 1 == k);
+        if (end) {
+          if (interiorUse[v] >= 0)
+            vs.at(i).fail("vertex " + std::to_string(v) + " ends this rod but is an interior node of rods[" +
+                          std::to_string(interiorUse[v]) + "]; rods meet only at their end vertices");
+          endUse[v] = static_cast<int>(r);
+        } else {
+          if (interiorUse[v] >= 0 || endUse[v] >= 0)
+            vs.at(i).fail("vertex " + std::to_string(v) + " is an interior node of this rod and is also used by rods[" +
+                          std::to_string(interiorUse[v] >= 0 ? interiorUse[v] : endUse[v]) +
+                          "]; rods meet only at their end vertices");
+          interiorUse[v] = static_cast<int>(r);
+        }
+      }
+      if (rn.has("normal")) {
+        Node nn = rn["normal"];
+        Vec3 n = nn.vec3();
+        if (!(n.norm() > 1e-12)) nn.fail("normal must be non-zero");
+        rod.normal = n.normalized();
+      }
+      s.rods.push_back(std::move(rod));
+    }
+    for (std::size_t v = 0; v < nv; ++v)
+      if (interiorUse[v] < 0 && endUse[v] < 0)
+        root["vertices"].at(v).fail("vertex " + std::to_string(v) + " belongs to no rod");
+  }
+
+  // Cross sections.
+  {
+    bool hasRadius = root.has("radius"), hasRadii = root.has("radii");
+    if (!hasRadius && !hasRadii) root["radius"];  // throws "missing required key"
+    Vec2 uniform(0, 0);
+    if (hasRadius) readRadiusPair(root["radius"], uniform);
+    s.radii.assign(nv, uniform);
+    if (hasRadii) {
+      Node rr = root["radii"];
+      std::size_t n = rr.arraySize();
+      if (n != nv) rr.fail("expected " + std::to_string(nv) + " radius pairs (one per vertex), got " + std::to_string(n));
+      for (std::size_t i = 0; i < nv; ++i) readRadiusPair(rr.at(i), s.radii[i]);
+    }
+  }
+
+  if (root.has("gravity")) s.gravity = root["gravity"].vec3();
+
+  if (root.has("effects")) {
+    Node ef = root["effects"];
+    std::size_t n = ef.arraySize();
+    std::vector<Effect> list;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::string name = ef.at(i).string();
+      bool found = false;
+      for (int k = 0; k < kEffectCount; ++k)
+        if (name == effectName(static_cast<Effect>(k))) { list.push_back(static_cast<Effect>(k)); found = true; }
+      if (!found)
+        ef.at(i).fail("unknown effect \"" + name + "\" (expected one of stretch, bend, twist, connections, gravity)");
+    }
+    bool hasStretch = false, hasGravity = false;
+    for (Effect e : list) { hasStretch |= e == Effect::Stretch; hasGravity |= e == Effect::Gravity; }
+    if (!hasStretch) ef.fail("\"stretch\" cannot be left out: inextensible rods would need constraints this model does not have");
+    if (hasGravity && !s.gravity) ef.fail("\"gravity\" is listed but the scene has no \"gravity\" vector");
+    s.effects = list;
+  }
+
+  // Poses.
+  {
+    Node poses = root["poses"];
+    std::size_t np = poses.arraySize();
+    if (np == 0) poses.fail("need at least one pose");
+    std::set<std::string> names;
+    for (std::size_t p = 0; p < np; ++p) {
+      Node pn = poses.at(p);
+      if (!pn.j->is_object()) pn.fail("expected an object, got " + pn.typeName());
+      warnUnknownKeys(pn, {"name", "weight", "fixed", "clamped", "forces", "target"});
+      Pose pose;
+      pose.name = pn.has("name") ? pn["name"].string() : "pose" + std::to_string(p);
+      if (pose.name.empty() || pose.name.find('/') != std::string::npos || pose.name == "." || pose.name == "..")
+        pn["name"].fail("pose name must be non-empty and contain no '/', got \"" + pose.name + "\"");
+      if (!names.insert(pose.name).second) pn["name"].fail("duplicate pose name \"" + pose.name + "\"");
+      if (pn.has("weight")) {
+        Node w = pn["weight"];
+        pose.weight = w.number();
+        if (pose.weight < 0) w.fail("weight must be non-negative, got " + fmt(pose.weight));
+      }
+      std::map<int, std::string> held;  // vertex -> where it was held
+      if (pn.has("fixed")) {
+        Node fx = pn["fixed"];
+        std::size_t n = fx.arraySize();
+        for (std::size_t i = 0; i < n; ++i) {
+          Node e = fx.at(i);
+          if (!e.j->is_object()) e.fail("expected an object with key \"vertex\", got " + e.typeName());
+          FixedVertex f;
+          f.vertex = e["vertex"].index(nv, "vertex");
+          if (e.has("position")) f.position = e["position"].vec3();
+          if (held.count(f.vertex)) e["vertex"].fail("vertex " + std::to_string(f.vertex) + " is already held by " + held[f.vertex]);
+          held[f.vertex] = e.path;
+          pose.fixed.push_back(f);
+        }
+      }
+      if (pn.has("clamped")) {
+        Node cl = pn["clamped"];
+        std::size_t n = cl.arraySize();
+        std::set<int> clampedHere;
+        for (std::size_t i = 0; i < n; ++i) {
+          Node e = cl.at(i);
+          if (!e.j->is_object()) e.fail("expected an object with key \"vertex\", got " + e.typeName());
+          ClampedVertex c;
+          c.vertex = e["vertex"].index(nv, "vertex");
+          if (!clampedHere.insert(c.vertex).second) e["vertex"].fail("vertex " + std::to_string(c.vertex) + " is clamped twice");
+          pose.clamped.push_back(c);
+        }
+      }
+      if (pn.has("forces")) {
+        Node fs = pn["forces"];
+        std::size_t n = fs.arraySize();
+        for (std::size_t i = 0; i < n; ++i) {
+          Node e = fs.at(i);
+          if (!e.j->is_object()) e.fail("expected an object with keys \"vertex\" and \"force\", got " + e.typeName());
+          PointForce f;
+          f.vertex = e["vertex"].index(nv, "vertex");
+          f.force = e["force"].vec3();
+          pose.forces.push_back(f);
+        }
+      }
+      if (pn.has("target")) pose.target = readVec3List(pn["target"], nv, "target positions");
+      s.poses.push_back(std::move(pose));
+    }
+  }
+
+  // Design.
+  if (root.has("design")) {
+    Node d = root["design"];
+    if (!d.j->is_object()) d.fail("expected an object, got " + d.typeName());
+    warnUnknownKeys(d, {"parameters", "radius_bounds", "control_points_per_rod"});
+    s.design.present = true;
+    if (d.has("parameters")) {
+      Node ps = d["parameters"];
+      std::size_t n = ps.arraySize();
+      for (std::size_t i = 0; i < n; ++i) {
+        std::string p = ps.at(i).string();
+        if (p == "radii") s.design.radii = true;
+        else if (p == "rest_shape") s.design.restShape = true;
+        else ps.at(i).fail("unknown design parameter \"" + p + "\" (expected radii or rest_shape)");
+      }
+    }
+    if (d.has("radius_bounds")) {
+      Node b = d["radius_bounds"];
+      Vec2 v = b.vec2();
+      if (!(v[0] > 0)) b.at(0).fail("minimum radius must be positive, got " + fmt(v[0]));
+      if (v[0] > v[1]) b.fail("bounds with min > max: [" + fmt(v[0]) + ", " + fmt(v[1]) + "]");
+      s.design.radiusMin = v[0];
+      s.design.radiusMax = v[1];
+      s.design.hasRadiusBounds = true;
+    }
+    if (d.has("control_points_per_rod")) {
+      Node c = d["control_points_per_rod"];
+      if (!c.j->is_number_integer()) c.fail("expected an integer, got " + c.typeName());
+      int v = c.j->get<int>();
+      if (v < 2) c.fail("need at least 2 control points per rod, got " + std::to_string(v));
+      s.design.controlPointsPerRod = v;
+    }
+  }
+  return s;
+}
+
+Scene readSceneFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open scene file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw InputError(path + ": cannot read scene file");
+  return parseScene(ss.str(), path);
+}
+
+}  // namespace rodmesh

@@ -1,0 +1,64 @@
+// Bending and twisting at an interior vertex of a rod, between its incoming
+// edge e0 and outgoing edge e1 (Bergou 2008 §4.2 and §4.2.2; Bergou 2010 §5).
+//
+//   E_b = 1/(2 l) * 1/2 sum_{j=0,1} (w_j - w̄_j)^T B (w_j - w̄_j),
+//   w_j = (kb . m2_j, -kb . m1_j),    kb = 2 t0 x t1 / (1 + t0 . t1),
+//   B = diag(E pi r_t^3 r_n / 4, E pi r_t r_n^3 / 4)   (in-plane, out-of-plane),
+//   E_t = 1/(2 l) * beta * (theta1 - theta0 + psi - psī)^2,
+//   beta = G pi r_t^3 r_n^3 / (r_t^2 + r_n^2),   l = (|E0| + |E1|) / 2.
+//
+// Reference directors u_j are the rest directors d1 parallel-transported from
+// the rest tangent to the current tangent (no state carried between
+// evaluations); psi is the reference twist, the signed angle about t1 from the
+// transport of u0 along t0 -> t1 to u1. Barred quantities are rest values
+// computed from the rest edges E0, E1 and the reference normals (theta = 0 at
+// rest). Non-smooth only where an edge is antiparallel to its rest tangent, where
+// two consecutive edges are antiparallel, or where psi - psī reaches +-pi (see
+// docs/model.md).
+//
+// Local variables: x = e0 (3), e1 (3), theta0, theta1; p = E0 (3), E1 (3),
+// r_t, r_n at the vertex.
+#pragma once
+
+#include "model/energies/rod_math.hh"
+#include "model/stiffness.hh"
+
+namespace rodmesh::energies {
+
+struct BendTwistConst {
+  Eigen::Vector3d n0 = Eigen::Vector3d::UnitZ(), n1 = Eigen::Vector3d::UnitZ();  // reference normals of e0, e1
+  double youngModulus = 0.0, shearModulus = 0.0;
+  bool bend = true, twist = true;
+};
+
+template <class S>
+S bendTwistEnergy(const V3<S>& e0, const V3<S>& e1, const S& th0, const S& th1, const V3<S>& E0, const V3<S>& E1,
+                  const S& rt, const S& rn, const BendTwistConst& c) {
+  const S l = S(0.5) * (norm(E0) + norm(E1));
+  const FrameT<S> F0 = restFrameOf(E0, c.n0), F1 = restFrameOf(E1, c.n1);
+  const V3<S> t0 = normalized(e0), t1 = normalized(e1);
+  const V3<S> u0 = parallelTransport(F0.t, t0, F0.d1);
+  const V3<S> u1 = parallelTransport(F1.t, t1, F1.d1);
+  S energy(0.0);
+  if (c.bend) {
+    V3<S> m1a, m2a, m1b, m2b;
+    materialDirectors(t0, u0, th0, m1a, m2a);
+    materialDirectors(t1, u1, th1, m1b, m2b);
+    const V3<S> kb = curvatureBinormal(t0, t1);
+    const V3<S> Kb = curvatureBinormal(F0.t, F1.t);
+    const S wa1 = dot(kb, m2a) - dot(Kb, F0.d2), wa2 = dot(Kb, F0.d1) - dot(kb, m1a);
+    const S wb1 = dot(kb, m2b) - dot(Kb, F1.d2), wb2 = dot(Kb, F1.d1) - dot(kb, m1b);
+    const S Bin = stiffness::bendingIn(c.youngModulus, rt, rn);
+    const S Bout = stiffness::bendingOut(c.youngModulus, rt, rn);
+    energy = energy + (S(0.25) / l) * (Bin * (wa1 * wa1 + wb1 * wb1) + Bout * (wa2 * wa2 + wb2 * wb2));
+  }
+  if (c.twist) {
+    const S psi = signedAngle(parallelTransport(t0, t1, u0), u1, t1);
+    const S psiRest = signedAngle(parallelTransport(F0.t, F1.t, F0.d1), F1.d1, F1.t);
+    const S tau = th1 - th0 + wrapAngle(psi - psiRest);
+    energy = energy + (S(0.5) / l) * stiffness::twisting(c.shearModulus, rt, rn) * tau * tau;
+  }
+  return energy;
+}
+
+}  // namespace rodmesh::energies

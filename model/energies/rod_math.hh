@@ -1,0 +1,110 @@
+// Small 3-vector algebra on a generic scalar (double, ad::Hess, ad::Dual) and
+// the discrete-elastic-rod frame operations the kernels share.
+//
+// References: Bergou et al. 2008 "Discrete elastic rods" (§4: curvature
+// binormal, parallel transport, material frame); Bergou et al. 2010 "Discrete
+// viscous threads" (§5: reference twist).
+#pragma once
+
+#include "model/ad.hh"
+
+#include <Eigen/Core>
+#include <cmath>
+
+namespace rodmesh {
+
+template <class S>
+struct V3 {
+  S x, y, z;
+  V3() : x(0.0), y(0.0), z(0.0) {}
+  V3(const S& a, const S& b, const S& c) : x(a), y(b), z(c) {}
+  explicit V3(const Eigen::Vector3d& v) : x(v[0]), y(v[1]), z(v[2]) {}
+  const S& operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
+  S& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
+};
+
+template <class S> inline V3<S> operator+(const V3<S>& a, const V3<S>& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+template <class S> inline V3<S> operator-(const V3<S>& a, const V3<S>& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+template <class S> inline V3<S> operator-(const V3<S>& a) { return {-a.x, -a.y, -a.z}; }
+template <class S> inline V3<S> operator*(const S& s, const V3<S>& a) { return {s * a.x, s * a.y, s * a.z}; }
+template <class S> inline S dot(const V3<S>& a, const V3<S>& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+template <class S> inline V3<S> cross(const V3<S>& a, const V3<S>& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+template <class S> inline S norm(const V3<S>& a) {
+  using std::sqrt;
+  return sqrt(dot(a, a));
+}
+template <class S> inline V3<S> normalized(const V3<S>& a) { return (S(1.0) / norm(a)) * a; }
+// Mixed-type helpers: a constant (double) vector with a generic one.
+template <class S> inline S dot(const Eigen::Vector3d& a, const V3<S>& b) { return a[0] * b.x + a[1] * b.y + a[2] * b.z; }
+
+// Parallel transport of v by the rotation about a x b taking unit a to unit b
+// (Bergou 2008 §4.2): P v = (a.b) v + (a x b) x v + ((a x b).v / (1 + a.b)) (a x b).
+// Smooth except at a = -b.
+template <class S>
+inline V3<S> parallelTransport(const V3<S>& a, const V3<S>& b, const V3<S>& v) {
+  const V3<S> c = cross(a, b);
+  const S d = dot(a, b);
+  return d * v + cross(c, v) + (dot(c, v) / (S(1.0) + d)) * c;
+}
+
+// Signed angle from p to q about the unit axis t (p, q perpendicular to t).
+template <class S>
+inline S signedAngle(const V3<S>& p, const V3<S>& q, const V3<S>& t) {
+  using std::atan2;
+  return atan2(dot(cross(p, q), t), dot(p, q));
+}
+
+// Curvature binormal between consecutive unit tangents (Bergou 2008 eq. 1):
+// kb = 2 t0 x t1 / (1 + t0 . t1), of length 2 tan(phi / 2).
+template <class S>
+inline V3<S> curvatureBinormal(const V3<S>& t0, const V3<S>& t1) {
+  return (S(2.0) / (S(1.0) + dot(t0, t1))) * cross(t0, t1);
+}
+
+// Orthonormal frame of an edge: tangent t, d1 (tangent-plane director, r_t
+// axis), d2 (normal director, r_n axis), with t x d1 = d2.
+template <class S>
+struct FrameT {
+  V3<S> t, d1, d2;
+};
+
+// Rest frame of an edge vector E whose reference normal is the constant unit
+// vector n: d2 = normalise(n - (n.t) t), d1 = d2 x t. A smooth function of E
+// while n is not parallel to E (see docs/model.md).
+template <class S>
+inline FrameT<S> restFrameOf(const V3<S>& E, const Eigen::Vector3d& n) {
+  FrameT<S> f;
+  f.t = normalized(E);
+  const S nt = dot(n, f.t);
+  const V3<S> nn{S(n[0]), S(n[1]), S(n[2])};
+  f.d2 = normalized(nn - nt * f.t);
+  f.d1 = cross(f.d2, f.t);
+  return f;
+}
+
+// Material directors of an edge with current unit tangent t, reference
+// director u (perpendicular to t) and twist angle theta:
+// m1 = cos(theta) u + sin(theta) (t x u), m2 = t x m1.
+template <class S>
+inline void materialDirectors(const V3<S>& t, const V3<S>& u, const S& theta, V3<S>& m1, V3<S>& m2) {
+  using std::cos;
+  using std::sin;
+  const S c = cos(theta), s = sin(theta);
+  const V3<S> v = cross(t, u);
+  m1 = c * u + s * v;
+  m2 = c * v - s * u;
+}
+
+// Wraps an angle difference into (-pi, pi]; a constant shift, so derivatives
+// pass through unchanged.
+template <class S>
+inline S wrapAngle(S a) {
+  constexpr double kPi = 3.14159265358979323846;
+  while (ad::value(a) > kPi) a = a - 2.0 * kPi;
+  while (ad::value(a) <= -kPi) a = a + 2.0 * kPi;
+  return a;
+}
+
+}  // namespace rodmesh

@@ -1,0 +1,161 @@
+// PoseSystem: the total potential energy of one pose as a function of its
+// unknowns, with exact gradient, sparse Hessian, design derivatives and
+// third-order directional derivatives.
+//
+// Unknowns of a pose (the vector u), in this order:
+//   1. for every free vertex (not fixed or clamped), in vertex order, its
+//      position: 3 coordinates x, y, z [m], or, for a planar scene, 2
+//      coordinates along EffectSet::planeBasis from planeOrigin [m];
+//   2. if twist is simulated, one twist angle theta per edge, in edge order [rad]
+//      (material frame relative to the reference frame, theta = 0 at rest).
+// Held vertices sit at their prescribed positions, interpolated from the rest
+// position by the load factor.
+//
+// Design parameters (the vector p), in this order:
+//   1. rest positions, 3 per vertex [m];
+//   2. radii [r_t, r_n], 2 per vertex [m].
+//
+// Energy terms (model/energies/*.hh): stretch per edge, bend+twist per interior
+// vertex, clamp coupling per (clamped vertex, incident edge), gravity per edge,
+// point forces per vertex. Each is a kernel templated on the scalar type and
+// differentiated by forward-mode AD (model/ad.hh), so the Hessian and the third
+// derivatives are exact.
+#pragma once
+
+#include "model/effects.hh"
+#include "model/network.hh"
+#include "model/scene.hh"
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include <vector>
+
+namespace rodmesh {
+
+// Design parameters: the things an optimiser may change.
+struct Design {
+  std::vector<Vec3> restPositions;
+  std::vector<Vec2> radii;  // [r_t, r_n] per vertex
+
+  static Design fromScene(const Scene& s) { return Design{s.vertices, s.radii}; }
+  int numParameters() const { return static_cast<int>(5 * restPositions.size()); }
+  Eigen::VectorXd toVector() const;
+  void fromVector(const Eigen::VectorXd& p);
+  static int restIndex(int vertex, int coord) { return 3 * vertex + coord; }
+  int radiusIndex(int vertex, int which) const { return static_cast<int>(3 * restPositions.size()) + 2 * vertex + which; }
+};
+
+using Triplet = Eigen::Triplet<double>;
+
+// Derivatives w.r.t. the joint variables (u, p): value, gradients, Hessian
+// blocks (uu and pp lower triangles, up full). With a direction v (in u-space),
+// the same quantities differentiated along v instead: D_v of gradient and
+// Hessian, i.e. third derivatives of the energy contracted with v.
+struct JointDerivatives {
+  double energy = 0.0;
+  Eigen::VectorXd gu, gp;
+  std::vector<Triplet> Huu, Hup, Hpp;
+};
+
+class PoseSystem {
+ public:
+  PoseSystem(const Scene& scene, const RodNetwork& network, const EffectSet& effects, int poseIndex);
+
+  int numDofs() const { return nDofs_; }
+  int numVertexDofs() const { return nVertexDofs_; }
+  int dofsPerVertex() const { return D_; }
+  bool hasTwist() const { return twist_; }
+  int poseIndex() const { return pose_; }
+  const std::vector<int>& vertexDof() const { return vertexDof_; }  // first unknown of a vertex, -1 if held
+  int thetaDof(int edge) const { return twist_ ? nVertexDofs_ + edge : -1; }
+
+  // Scales point forces, gravity and the prescribed displacements of held
+  // vertices (continuation); 1 is the pose as given.
+  void setLoadFactor(double s) { loadFactor_ = s; }
+  double loadFactor() const { return loadFactor_; }
+
+  // Unknowns of the rest configuration (held vertices are not unknowns).
+  Eigen::VectorXd restDofs(const Design& d) const;
+  // Full positions (held vertices at their prescribed positions) and edge twist
+  // angles (zeros when twist is not simulated).
+  std::vector<Vec3> positions(const Eigen::VectorXd& u) const;
+  Eigen::VectorXd twists(const Eigen::VectorXd& u) const;
+  // Unknowns from full positions and twists (inverse of the above).
+  Eigen::VectorXd dofsFrom(const std::vector<Vec3>& x, const Eigen::VectorXd& theta) const;
+
+  // Total energy; gradient and Hessian w.r.t. u (Hessian: lower triangle,
+  // fixed sparsity pattern built once).
+  double energy(const Eigen::VectorXd& u, const Design& d) const;
+  void evaluate(const Eigen::VectorXd& u, const Design& d, double& energy, Eigen::VectorXd& gradient,
+                bool wantHessian);
+  const Eigen::SparseMatrix<double>& hessian() const { return hessian_; }
+
+  // Joint derivatives w.r.t. (u, p); see JointDerivatives.
+  JointDerivatives joint(const Eigen::VectorXd& u, const Design& d) const;
+  JointDerivatives jointDirectional(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& v) const;
+
+  // Length that turns moments into forces in residual norms: mean rest edge length.
+  double momentArm() const { return momentArm_; }
+  // Residual vector in newtons: position components as they are, twist
+  // components divided by momentArm().
+  Eigen::VectorXd forceResidual(const Eigen::VectorXd& gradient) const;
+
+  // Which energy terms exist (for reports and tests).
+  int numStretch() const { return static_cast<int>(stretch_.size()); }
+  int numBendTwist() const { return static_cast<int>(bend_.size()); }
+  int numClamp() const { return static_cast<int>(clamp_.size()); }
+
+  // Restrict evaluation to one kind of term (tests, diagnostics).
+  enum class Terms { All, Stretch, BendTwist, Clamp, Gravity, Forces };
+  void setTermFilter(Terms t) { filter_ = t; }
+
+ private:
+  struct StretchSt { int edge; };
+  struct BendSt { int vertex, e0, e1; };
+  struct ClampSt { int vertex, edge; };
+  struct Stencil {
+    int offset = 0;  // into stencilDofs_ / slot tables
+    int size = 0;
+  };
+
+  Vec3 heldPosition(int v) const;
+  bool use(Terms t) const { return filter_ == Terms::All || filter_ == t; }
+  void buildPattern();
+  template <class Fn>
+  void forEachStencilDofs(Fn&& fn) const;
+
+  template <int D, bool TW, class Out>
+  void runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const;
+  template <int D, bool TW, class T>
+  void runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v, JointDerivatives& out) const;
+
+  const Scene& scene_;
+  const RodNetwork& net_;
+  EffectSet fx_;
+  int pose_;
+  int D_ = 3;
+  bool twist_ = true;
+  int nVertexDofs_ = 0, nDofs_ = 0;
+  double loadFactor_ = 1.0;
+  double momentArm_ = 1.0;
+  Terms filter_ = Terms::All;
+
+  std::vector<int> vertexDof_;
+  std::vector<bool> held_;
+  std::vector<Vec3> heldTarget_;  // prescribed position at load factor 1
+  std::vector<Vec3> pointForce_;  // summed per vertex
+
+  std::vector<StretchSt> stretch_;
+  std::vector<BendSt> bend_;
+  std::vector<ClampSt> clamp_;
+
+  // Sparsity: per stencil (stretch, bend, clamp in that order) its unknowns and
+  // the Hessian value slot of each (i >= j) pair.
+  std::vector<int> stencilDofs_;
+  std::vector<int> stencilSlots_;
+  std::vector<Stencil> stencils_;
+  Eigen::SparseMatrix<double> hessian_;
+};
+
+}  // namespace rodmesh

@@ -1,0 +1,25 @@
+// Cross-section stiffnesses of an elliptic section with semi-axes r_t (in the
+// surface's tangent plane) and r_n (along the reference normal), as fixed by
+// ../shared/contracts.md §1. Templated on the scalar so that design
+// derivatives (w.r.t. the radii) come out of the same code.
+#pragma once
+
+namespace rodmesh::stiffness {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Axial stiffness E A.
+template <class S> inline S stretching(double E, const S& rt, const S& rn) { return (E * kPi) * rt * rn; }
+// Bending toward the normal (out of the surface): curvature about the d1 axis.
+template <class S> inline S bendingOut(double E, const S& rt, const S& rn) { return (E * kPi / 4.0) * rt * rn * rn * rn; }
+// Bending within the tangent plane: curvature about the d2 (normal) axis.
+template <class S> inline S bendingIn(double E, const S& rt, const S& rn) { return (E * kPi / 4.0) * rt * rt * rt * rn; }
+// Torsional stiffness G J of the ellipse.
+template <class S> inline S twisting(double G, const S& rt, const S& rn) {
+  const S rt2 = rt * rt, rn2 = rn * rn;
+  return (G * kPi) * (rt2 * rt * rn2 * rn) / (rt2 + rn2);
+}
+// Mass per unit length.
+template <class S> inline S massPerLength(double rho, const S& rt, const S& rn) { return (rho * kPi) * rt * rn; }
+
+}  // namespace rodmesh::stiffness

@@ -1,0 +1,58 @@
+// Static equilibrium of every pose of a scene (poses are independent).
+#pragma once
+
+#include "model/effects.hh"
+#include "model/network.hh"
+#include "model/pose_system.hh"
+#include "solver/newton.hh"
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rodmesh {
+
+struct PoseResult {
+  std::string name;
+  std::vector<Vec3> positions;
+  Eigen::VectorXd twist;  // per edge; zeros when twist is not simulated
+  Eigen::VectorXd dofs;
+  NewtonReport report;
+  std::optional<double> rmsError;  // m, when the pose has a target
+};
+
+struct SimulationResult {
+  std::vector<PoseResult> poses;
+  bool allConverged = true;
+  int dofsPerPose = 0;  // unknowns of the first pose
+};
+
+// A scene prepared for solving: network, effects and one PoseSystem per pose.
+class SceneModel {
+ public:
+  explicit SceneModel(const Scene& scene);
+  const Scene& scene() const { return scene_; }
+  const RodNetwork& network() const { return network_; }
+  const EffectSet& effects() const { return effects_; }
+  PoseSystem& pose(int i) { return *poses_[i]; }
+  int numPoses() const { return static_cast<int>(poses_.size()); }
+
+ private:
+  const Scene& scene_;
+  RodNetwork network_;
+  EffectSet effects_;
+  std::vector<std::unique_ptr<PoseSystem>> poses_;
+};
+
+using PoseProgress = std::function<void(int pose, const PoseResult&)>;
+
+// Solves every pose from its rest configuration under the given design.
+SimulationResult simulateAll(SceneModel& model, const Design& design, const NewtonOptions& options,
+                             const PoseProgress& progress = {});
+
+// RMS distance to the target over the given positions (m).
+double rmsError(const std::vector<Vec3>& x, const std::vector<Vec3>& target);
+
+}  // namespace rodmesh
