@@ -169,6 +169,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
   }
 
   // Rods, and the rule that rods meet only at their end vertices.
+  std::vector<int> endCount(nv, 0), useCount(nv, 0);
   {
     Node rods = root["rods"];
     std::size_t nr = rods.arraySize();
@@ -218,6 +219,11 @@ Scene parseScene(const std::string& text, const std::string& path) {
         rod.normal = n.normalized();
       }
       s.rods.push_back(std::move(rod));
+    }
+    for (const Rod& rod : s.rods) {
+      for (int v : rod.vertices) useCount[v]++;
+      endCount[rod.vertices.front()]++;
+      endCount[rod.vertices.back()]++;
     }
     for (std::size_t v = 0; v < nv; ++v)
       if (interiorUse[v] < 0 && endUse[v] < 0)
@@ -269,7 +275,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
     for (std::size_t p = 0; p < np; ++p) {
       Node pn = poses.at(p);
       if (!pn.j->is_object()) pn.fail("expected an object, got " + pn.typeName());
-      warnUnknownKeys(pn, {"name", "weight", "fixed", "clamped", "forces", "target"});
+      warnUnknownKeys(pn, {"name", "weight", "fixed", "clamped", "forces", "twisting_moments", "target"});
       Pose pose;
       pose.name = pn.has("name") ? pn["name"].string() : "pose" + std::to_string(p);
       if (pose.name.empty() || pose.name.find('/') != std::string::npos || pose.name == "." || pose.name == "..")
@@ -318,6 +324,20 @@ Scene parseScene(const std::string& text, const std::string& path) {
           f.vertex = e["vertex"].index(nv, "vertex");
           f.force = e["force"].vec3();
           pose.forces.push_back(f);
+        }
+      }
+      if (pn.has("twisting_moments")) {
+        Node ms = pn["twisting_moments"];
+        std::size_t n = ms.arraySize();
+        for (std::size_t i = 0; i < n; ++i) {
+          Node e = ms.at(i);
+          if (!e.j->is_object()) e.fail("expected an object with keys \"vertex\" and \"moment\", got " + e.typeName());
+          TwistingMoment m;
+          m.vertex = e["vertex"].index(nv, "vertex");
+          if (endCount[m.vertex] != 1 || useCount[m.vertex] != 1)
+            e["vertex"].fail("vertex " + std::to_string(m.vertex) + " is not the free end of a rod; twisting moments act on free ends");
+          m.moment = e["moment"].number();
+          pose.twistingMoments.push_back(m);
         }
       }
       if (pn.has("target")) pose.target = readVec3List(pn["target"], nv, "target positions");

@@ -67,6 +67,9 @@ std::string sceneToJson(const Scene& s, int indent) {
     json forces = json::array();
     for (const PointForce& f : p.forces) forces.push_back({{"vertex", f.vertex}, {"force", vec(f.force)}});
     if (!forces.empty()) pj["forces"] = std::move(forces);
+    json moments = json::array();
+    for (const TwistingMoment& m : p.twistingMoments) moments.push_back({{"vertex", m.vertex}, {"moment", m.moment}});
+    if (!moments.empty()) pj["twisting_moments"] = std::move(moments);
     if (!p.target.empty()) {
       json t = json::array();
       for (const Vec3& v : p.target) t.push_back(vec(v));

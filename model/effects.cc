@@ -39,6 +39,11 @@ bool findPlane(const Scene& scene, const RodNetwork& net, Eigen::Vector3d& norma
   auto addDir = [&](const Vec3& v) {
     if (v.norm() > 0) dirs.push_back(v.normalized());
   };
+  for (const Pose& pose : scene.poses)
+    if (!pose.twistingMoments.empty()) {
+      why = "pose '" + pose.name + "' applies twisting moments";
+      return false;
+    }
   for (const Vec3& p : scene.vertices) addPoint(p);
   if (scene.gravity) addDir(*scene.gravity);
   for (const Pose& pose : scene.poses) {

@@ -210,6 +210,13 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
   }
   pointForce_.assign(nv, Vec3::Zero());
   for (const PointForce& f : pose.forces) pointForce_[f.vertex] += f.force;
+  for (const TwistingMoment& m : pose.twistingMoments) {
+    // The edge at the free end; theta turns the frame about the edge
+    // direction a -> b, the moment is about the outward direction.
+    const int e = network.vertexEdges()[m.vertex].front();
+    const double sign = network.edges()[e].b == m.vertex ? 1.0 : -1.0;
+    edgeMoment_.emplace_back(e, sign * m.moment);
+  }
 
   vertexDof_.assign(nv, -1);
   int n = 0;
@@ -636,9 +643,15 @@ void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) con
       addLoad(e.b, 0.5 * m * g);
     }
   }
-  if (use(Terms::Forces))
+  if (use(Terms::Forces)) {
     for (std::size_t v = 0; v < pointForce_.size(); ++v)
       if (pointForce_[v].squaredNorm() > 0) addLoad(static_cast<int>(v), loadFactor_ * pointForce_[v]);
+    if constexpr (TW)
+      for (const auto& [e, m] : edgeMoment_) {
+        out.energy -= loadFactor_ * m * theta[e];
+        if (out.gradient) (*out.gradient)[thetaDof(e)] -= loadFactor_ * m;
+      }
+  }
 }
 
 namespace {
@@ -737,6 +750,15 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
       if (k < 0) continue;
       if constexpr (D == 3) out.gu.template segment<3>(k) -= f;
       else out.gu.template segment<2>(k) -= B.transpose() * f;
+    }
+  if (use(Terms::Forces) && TW)
+    for (const auto& [e, m] : edgeMoment_) {
+      if (derivative) {
+        out.energy -= loadFactor_ * m * (*v)[thetaDof(e)];
+      } else {
+        out.energy -= loadFactor_ * m * theta[e];
+        out.gu[thetaDof(e)] -= loadFactor_ * m;
+      }
     }
 }
 

@@ -145,6 +145,7 @@ class PoseSystem {
   std::vector<bool> held_;
   std::vector<Vec3> heldTarget_;  // prescribed position at load factor 1
   std::vector<Vec3> pointForce_;  // summed per vertex
+  std::vector<std::pair<int, double>> edgeMoment_;  // (edge, twisting moment along the edge direction)
 
   std::vector<StretchSt> stretch_;
   std::vector<BendSt> bend_;

@@ -42,12 +42,21 @@ struct PointForce {
   Vec3 force = Vec3::Zero();
 };
 
+// Extension: a twisting moment [N m] about the tangent of the end edge of a
+// rod at a free end vertex, right-handed about the direction pointing out of
+// the rod through that vertex.
+struct TwistingMoment {
+  int vertex = -1;
+  double moment = 0.0;
+};
+
 struct Pose {
   std::string name;
   double weight = 1.0;
   std::vector<FixedVertex> fixed;
   std::vector<ClampedVertex> clamped;
   std::vector<PointForce> forces;
+  std::vector<TwistingMoment> twistingMoments;  // extension "twisting_moments"
   std::vector<Vec3> target;  // empty when absent, else one per vertex
 };
 
