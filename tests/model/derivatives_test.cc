@@ -1,0 +1,298 @@
+// Taylor tests of every energy term's derivatives (tests/testutil/taylor.hh):
+// gradient, Hessian, design gradient, mixed and design Hessians, and the
+// third-order directional derivative, at random bent, twisted, anisotropic
+// states, in 3D (with and without twist) and with planar unknowns.
+#include "model/pose_system.hh"
+#include "solver/equilibrium.hh"
+#include "tests/testutil/taylor.hh"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace rodmesh {
+namespace {
+
+using testutil::taylorTest;
+using testutil::taylorTestScalar;
+using Terms = PoseSystem::Terms;
+
+enum class Kind { Spatial, Planar, SpatialNoTwist };
+
+const char* kindName(Kind k) {
+  switch (k) {
+    case Kind::Spatial: return "spatial";
+    case Kind::Planar: return "planar";
+    case Kind::SpatialNoTwist: return "spatial-no-twist";
+  }
+  return "?";
+}
+
+// A curved rod of 7 vertices (a helix arc, or a planar arc), anisotropic
+// varying radii, clamped at vertex 0, fixed at vertex 3 of a second short rod
+// sharing no vertex, with point forces, a twisting moment (3D) and gravity.
+Scene makeScene(Kind kind) {
+  Scene s;
+  s.sourcePath = "<derivatives>";
+  s.material = Material{2e7, 0.45, 1100.0};
+  const int n = 7;
+  Rod rod;
+  for (int i = 0; i < n; ++i) {
+    const double a = 0.35 * i;
+    const double z = kind == Kind::Planar ? 0.0 : 0.004 * i;
+    s.vertices.push_back(Vec3(0.03 * std::cos(a), 0.03 * std::sin(a), z));
+    rod.vertices.push_back(i);
+  }
+  s.rods.push_back(rod);
+  // A second rod with a free interior, fixed at one end.
+  Rod rod2;
+  for (int i = 0; i < 4; ++i) {
+    const double z = kind == Kind::Planar ? 0.0 : 0.002 * i * i;
+    s.vertices.push_back(Vec3(0.05 + 0.01 * i, -0.02 + 0.003 * i * i, z));
+    rod2.vertices.push_back(n + i);
+  }
+  s.rods.push_back(rod2);
+  for (std::size_t v = 0; v < s.vertices.size(); ++v)
+    s.radii.push_back(Vec2(0.0012 + 0.0001 * v, 0.0007 + 0.00015 * (v % 3)));
+  s.gravity = kind == Kind::Planar ? Vec3(0.0, -9.81, 0.0) : Vec3(0.5, -2.0, -9.81);
+  Pose p;
+  p.name = "p";
+  p.clamped.push_back({0});
+  p.fixed.push_back({n + 3, Vec3(0.085, 0.01, 0.0)});
+  p.forces.push_back({n - 1, kind == Kind::Planar ? Vec3(0.01, -0.02, 0.0) : Vec3(0.01, -0.02, 0.03)});
+  p.forces.push_back({n, kind == Kind::Planar ? Vec3(-0.01, 0.0, 0.0) : Vec3(-0.01, 0.0, 0.02)});
+  if (kind == Kind::Spatial) p.twistingMoments.push_back({n - 1, 1e-4});
+  s.poses.push_back(p);
+  if (kind == Kind::SpatialNoTwist)
+    s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Gravity};
+  return s;
+}
+
+struct Fixture {
+  Scene scene;
+  std::unique_ptr<SceneModel> model;
+  Design design;
+  Eigen::VectorXd u, du, dp;
+  PoseSystem& sys() { return model->pose(0); }
+};
+
+std::unique_ptr<Fixture> makeFixture(Kind kind, unsigned seed) {
+  auto f = std::make_unique<Fixture>();
+  f->scene = makeScene(kind);
+  f->model = std::make_unique<SceneModel>(f->scene);
+  f->design = Design::fromScene(f->scene);
+  PoseSystem& sys = f->sys();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const double h = 0.01;  // typical edge length
+  // Random state: positions perturbed by up to 15% of an edge, twists up to 0.6 rad.
+  f->u = sys.restDofs(f->design);
+  f->du.resize(sys.numDofs());
+  for (int i = 0; i < sys.numDofs(); ++i) {
+    const bool theta = i >= sys.numVertexDofs();
+    f->u[i] += theta ? 0.6 * U(rng) : 0.15 * h * U(rng);
+    f->du[i] = theta ? 0.5 * U(rng) : 0.1 * h * U(rng);
+  }
+  // Design direction: rest positions by 10% of an edge, radii by 20%.
+  const int nv = static_cast<int>(f->design.restPositions.size());
+  f->dp.resize(f->design.numParameters());
+  for (int v = 0; v < nv; ++v) {
+    for (int c = 0; c < 3; ++c) f->dp[Design::restIndex(v, c)] = 0.1 * h * U(rng);
+    for (int c = 0; c < 2; ++c) f->dp[f->design.radiusIndex(v, c)] = 0.2 * f->design.radii[v][c] * U(rng);
+  }
+  return f;
+}
+
+Eigen::MatrixXd dense(const std::vector<Triplet>& t, int rows, int cols, bool symmetricLower) {
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(rows, cols);
+  for (const Triplet& e : t) {
+    M(e.row(), e.col()) += e.value();
+    if (symmetricLower && e.row() != e.col()) M(e.col(), e.row()) += e.value();
+  }
+  return M;
+}
+
+// The joint Hessian over (u, p) as one dense symmetric matrix.
+Eigen::MatrixXd jointHessian(const JointDerivatives& j, int n, int P) {
+  Eigen::MatrixXd H(n + P, n + P);
+  const Eigen::MatrixXd Hup = dense(j.Hup, n, P, false);
+  H.topLeftCorner(n, n) = dense(j.Huu, n, n, true);
+  H.topRightCorner(n, P) = Hup;
+  H.bottomLeftCorner(P, n) = Hup.transpose();
+  H.bottomRightCorner(P, P) = dense(j.Hpp, P, P, true);
+  return H;
+}
+
+Eigen::VectorXd flatten(const Eigen::MatrixXd& M) { return Eigen::Map<const Eigen::VectorXd>(M.data(), M.size()); }
+
+struct Case {
+  Kind kind;
+  Terms term;
+};
+
+std::string caseName(const testing::TestParamInfo<Case>& info) {
+  static const char* names[] = {"All", "Stretch", "BendTwist", "Clamp", "Gravity", "Forces"};
+  std::string k = kindName(info.param.kind);
+  for (char& c : k)
+    if (c == '-') c = '_';
+  return k + "_" + names[static_cast<int>(info.param.term)];
+}
+
+class TermDerivatives : public testing::TestWithParam<Case> {};
+
+constexpr double kMinOrder = 1.85;
+
+TEST_P(TermDerivatives, GradientAndHessian) {
+  const Case c = GetParam();
+  auto f = makeFixture(c.kind, 7);
+  PoseSystem& sys = f->sys();
+  sys.setTermFilter(c.term);
+  const Design& d = f->design;
+  double E;
+  Eigen::VectorXd g;
+  sys.evaluate(f->u, d, E, g, true);
+  const Eigen::MatrixXd H = Eigen::MatrixXd(sys.hessian()).selfadjointView<Eigen::Lower>();
+
+  auto energy = [&](const Eigen::VectorXd& u) { return sys.energy(u, d); };
+  auto gradient = [&](const Eigen::VectorXd& u) {
+    double e;
+    Eigen::VectorXd gg;
+    sys.evaluate(u, d, e, gg, false);
+    return gg;
+  };
+  EXPECT_NEAR(energy(f->u), E, 1e-12 * std::abs(E) + 1e-300);
+  const auto rg = taylorTestScalar(energy, f->u, f->du, g.dot(f->du));
+  EXPECT_TAYLOR_ORDER(rg, kMinOrder) << testutil::findBadComponent(
+      [&](const Eigen::VectorXd& u) { return Eigen::VectorXd::Constant(1, energy(u)); }, f->u,
+      [&](int j) { return Eigen::VectorXd::Constant(1, g[j]); });
+
+  const bool linear = c.term == Terms::Gravity || c.term == Terms::Forces;
+  if (linear) {
+    EXPECT_EQ(H.norm(), 0.0) << "a load term linear in the positions has no Hessian";
+    return;
+  }
+  const auto rh = taylorTest(gradient, f->u, f->du, H * f->du);
+  EXPECT_TAYLOR_ORDER(rh, kMinOrder) << testutil::findBadComponent(gradient, f->u, [&](int j) {
+    return Eigen::VectorXd(H.col(j));
+  });
+}
+
+TEST_P(TermDerivatives, DesignDerivatives) {
+  const Case c = GetParam();
+  auto f = makeFixture(c.kind, 11);
+  PoseSystem& sys = f->sys();
+  sys.setTermFilter(c.term);
+  const int n = sys.numDofs(), P = f->design.numParameters();
+  const Eigen::VectorXd p0 = f->design.toVector();
+  auto designOf = [&](const Eigen::VectorXd& p) {
+    Design d = f->design;
+    d.fromVector(p);
+    return d;
+  };
+  const JointDerivatives j = sys.joint(f->u, f->design);
+  const Eigen::MatrixXd Hup = dense(j.Hup, n, P, false);
+  const Eigen::MatrixXd Hpp = dense(j.Hpp, P, P, true);
+  const Eigen::MatrixXd Huu = dense(j.Huu, n, n, true);
+
+  // Both code paths (simulation and joint) agree on value, gradient, Hessian.
+  double E;
+  Eigen::VectorXd g;
+  sys.evaluate(f->u, f->design, E, g, true);
+  EXPECT_NEAR(j.energy, E, 1e-12 * std::abs(E) + 1e-300);
+  EXPECT_LE((j.gu - g).norm(), 1e-12 * (g.norm() + 1e-300));
+  const Eigen::MatrixXd Hsim = Eigen::MatrixXd(sys.hessian()).selfadjointView<Eigen::Lower>();
+  EXPECT_LE((Huu - Hsim).norm(), 1e-12 * (Hsim.norm() + 1e-300));
+
+  if (c.term == Terms::Forces) {
+    EXPECT_EQ(j.gp.norm(), 0.0) << "point loads do not depend on the design";
+    return;
+  }
+  // dE/dp.
+  auto energyP = [&](const Eigen::VectorXd& p) { return sys.energy(f->u, designOf(p)); };
+  EXPECT_TAYLOR_ORDER(taylorTestScalar(energyP, p0, f->dp, j.gp.dot(f->dp)), kMinOrder);
+  // d(grad_u E)/dp = H_up.
+  auto gradU = [&](const Eigen::VectorXd& p) {
+    double e;
+    Eigen::VectorXd gg;
+    sys.evaluate(f->u, designOf(p), e, gg, false);
+    return gg;
+  };
+  EXPECT_TAYLOR_ORDER(taylorTest(gradU, p0, f->dp, Hup * f->dp), kMinOrder);
+  // d(grad_p E)/dp = H_pp and d(grad_p E)/du = H_up^T.
+  auto gradP = [&](const Eigen::VectorXd& p) { return sys.joint(f->u, designOf(p)).gp; };
+  EXPECT_TAYLOR_ORDER(taylorTest(gradP, p0, f->dp, Hpp * f->dp), kMinOrder);
+  if (c.term != Terms::Gravity || true) {
+    auto gradPu = [&](const Eigen::VectorXd& u) { return sys.joint(u, f->design).gp; };
+    EXPECT_TAYLOR_ORDER(taylorTest(gradPu, f->u, f->du, Hup.transpose() * f->du), kMinOrder);
+  }
+}
+
+TEST_P(TermDerivatives, ThirdOrderDirectional) {
+  const Case c = GetParam();
+  auto f = makeFixture(c.kind, 13);
+  PoseSystem& sys = f->sys();
+  sys.setTermFilter(c.term);
+  const int n = sys.numDofs(), P = f->design.numParameters();
+  const Eigen::VectorXd& v = f->du;
+  const JointDerivatives j = sys.joint(f->u, f->design);
+  const JointDerivatives dj = sys.jointDirectional(f->u, f->design, v);
+  // D_v of the energy and of the gradient are the gradient and Hessian along v.
+  EXPECT_NEAR(dj.energy, j.gu.dot(v), 1e-11 * (std::abs(j.gu.dot(v)) + j.gu.norm() * v.norm()));
+  const Eigen::MatrixXd H = jointHessian(j, n, P);
+  Eigen::VectorXd vj = Eigen::VectorXd::Zero(n + P);
+  vj.head(n) = v;
+  const Eigen::VectorXd Hv = H * vj;
+  EXPECT_LE((dj.gu - Hv.head(n)).norm(), 1e-10 * (Hv.norm() + 1e-300));
+  EXPECT_LE((dj.gp - Hv.tail(P)).norm(), 1e-10 * (Hv.norm() + 1e-300));
+  // D_v of the joint Hessian against the Taylor remainder of the Hessian.
+  const Eigen::VectorXd dH = flatten(jointHessian(dj, n, P));
+  if (c.term == Terms::Forces) {
+    EXPECT_EQ(dH.norm(), 0.0) << "point loads are linear: their third derivatives vanish";
+    return;
+  }
+  auto hessOf = [&](const Eigen::VectorXd& u) { return flatten(jointHessian(sys.joint(u, f->design), n, P)); };
+  EXPECT_TAYLOR_ORDER(taylorTest(hessOf, f->u, v, dH), kMinOrder);
+}
+
+std::vector<Case> allCases() {
+  std::vector<Case> cs;
+  for (Kind k : {Kind::Spatial, Kind::Planar, Kind::SpatialNoTwist})
+    for (Terms t : {Terms::All, Terms::Stretch, Terms::BendTwist, Terms::Clamp, Terms::Gravity, Terms::Forces})
+      cs.push_back({k, t});
+  return cs;
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTerms, TermDerivatives, testing::ValuesIn(allCases()), caseName);
+
+// The helper itself: a wrong derivative must be caught (first-order remainder).
+TEST(TaylorHelper, DetectsWrongDerivative) {
+  auto f = makeFixture(Kind::Spatial, 3);
+  PoseSystem& sys = f->sys();
+  double E;
+  Eigen::VectorXd g;
+  sys.evaluate(f->u, f->design, E, g, false);
+  auto energy = [&](const Eigen::VectorXd& u) { return sys.energy(u, f->design); };
+  const auto good = taylorTestScalar(energy, f->u, f->du, g.dot(f->du));
+  const auto bad = taylorTestScalar(energy, f->u, f->du, 1.01 * g.dot(f->du));
+  EXPECT_GE(good.order, kMinOrder);
+  EXPECT_LT(bad.order, 1.2) << bad.table();
+}
+
+// The stencils the scene is meant to exercise are all there.
+TEST(TermDerivatives, ScenesExerciseEveryTerm) {
+  auto f = makeFixture(Kind::Spatial, 1);
+  EXPECT_GT(f->sys().numStretch(), 0);
+  EXPECT_GT(f->sys().numBendTwist(), 0);
+  EXPECT_GT(f->sys().numClamp(), 0);
+  EXPECT_TRUE(f->sys().hasTwist());
+  auto p = makeFixture(Kind::Planar, 1);
+  EXPECT_EQ(p->sys().dofsPerVertex(), 2);
+  EXPECT_FALSE(p->sys().hasTwist());
+  auto q = makeFixture(Kind::SpatialNoTwist, 1);
+  EXPECT_EQ(q->sys().dofsPerVertex(), 3);
+  EXPECT_FALSE(q->sys().hasTwist());
+}
+
+}  // namespace
+}  // namespace rodmesh
