@@ -1,0 +1,39 @@
+// rodmesh export ARCHIVE.h5 -o OUT.{stl,obj,ply} [--pose NAME]: a printable,
+// one-piece solid of the designed rod mesh. See docs/meshing.md.
+#include "apps/commands.hh"
+#include "meshing/export.hh"
+
+#include <iostream>
+#include <memory>
+
+namespace rodmesh::cli {
+
+namespace {
+struct ExportCliOptions {
+  std::string archive, output;
+  meshing::ExportOptions exp;
+};
+}  // namespace
+
+Command registerExport(CLI::App& root, const GlobalOptions& global) {
+  auto o = std::make_shared<ExportCliOptions>();
+  CLI::App* app = root.add_subcommand("export", "printable solid (.stl, .obj, .ply) of the rod mesh in an archive");
+  app->add_option("archive", o->archive, "result archive (HDF5) from simulate or optimize")->required();
+  app->add_option("-o,--output", o->output, "solid to write: .stl (binary), .obj or .ply")->required();
+  app->add_option("--pose", o->exp.pose, "export the equilibrium shape of this pose instead of the rest shape");
+  app->add_option("--resolution", o->exp.solid.resolution,
+                  "contouring grid step in metres (default: max(min radius / 2.5, median minor radius / 4))");
+  app->add_option("--fillet", o->exp.solid.fillet,
+                  "blend radius where rods meet, metres (default: half the median minor radius; 0: sharp)");
+
+  Command c;
+  c.app = app;
+  c.run = [o, &global]() -> int {
+    const meshing::ExportReport r = meshing::exportSolid(o->archive, o->output, o->exp);
+    if (!global.quiet) std::cerr << meshing::formatExportReport(r) << "wrote " << o->output << "\n";
+    return kExitDone;
+  };
+  return c;
+}
+
+}  // namespace rodmesh::cli
