@@ -97,7 +97,9 @@ std::string readStringAttr(hid_t obj, const char* name, const std::string& file)
     H5Dvlen_reclaim(type, space, H5P_DEFAULT, &p);
     return out;
   }
-  std::size_t n = H5Tget_size(ftype);
+  // One byte more than stored: a null-padded string may fill its whole size,
+  // and a null-terminated memory type of that size would drop its last byte.
+  std::size_t n = H5Tget_size(ftype) + 1;
   std::string out(n, '\0');
   Hid type(H5Tcopy(H5T_C_S1), H5Tclose);
   H5Tset_size(type, n);

@@ -3,7 +3,9 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdint>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -52,12 +54,22 @@ struct Node {
     if (!std::isfinite(v)) fail("expected a finite number, got " + shortDump());
     return v;
   }
+  // True if the node is an integer in [lo, hi]; compares without converting
+  // (a conversion to a narrower type would wrap large values around).
+  bool integerWithin(long long lo, long long hi) const {
+    if (j->is_number_unsigned()) {
+      const std::uint64_t u = j->get<std::uint64_t>();
+      return hi >= 0 && u <= static_cast<std::uint64_t>(hi) && (lo <= 0 || u >= static_cast<std::uint64_t>(lo));
+    }
+    if (!j->is_number_integer()) return false;
+    const long long v = j->get<long long>();
+    return v >= lo && v <= hi;
+  }
   int index(std::size_t count, const char* what) const {
     if (!j->is_number_integer() && !j->is_number_unsigned()) fail("expected an integer " + std::string(what) + " index, got " + typeName());
-    long long v = j->get<long long>();
-    if (v < 0 || v >= static_cast<long long>(count))
-      fail(std::string(what) + " index " + std::to_string(v) + " out of range [0, " + std::to_string(count) + ")");
-    return static_cast<int>(v);
+    if (!integerWithin(0, static_cast<long long>(count) - 1))
+      fail(std::string(what) + " index " + shortDump() + " out of range [0, " + std::to_string(count) + ")");
+    return static_cast<int>(j->get<long long>());
   }
   std::string string() const {
     if (!j->is_string()) fail("expected a string, got " + typeName());
@@ -120,6 +132,9 @@ Scene parseScene(const std::string& text, const std::string& path) {
     }
     throw InputError(path + ": not valid JSON (line " + std::to_string(line) + ", column " + std::to_string(col) +
                      "): " + e.what());
+  } catch (const json::exception& e) {
+    // Other parser failures, e.g. out_of_range.406 "number overflow parsing '1e999'".
+    throw InputError(path + ": not valid JSON: " + e.what());
   }
 
   Scene s;
@@ -373,9 +388,10 @@ Scene parseScene(const std::string& text, const std::string& path) {
     if (d.has("control_points_per_rod")) {
       Node c = d["control_points_per_rod"];
       if (!c.j->is_number_integer()) c.fail("expected an integer, got " + c.typeName());
-      int v = c.j->get<int>();
-      if (v < 2) c.fail("need at least 2 control points per rod, got " + std::to_string(v));
-      s.design.controlPointsPerRod = v;
+      if (!c.integerWithin(2, std::numeric_limits<int>::max()))
+        c.fail("need at least 2 control points per rod (and at most " + std::to_string(std::numeric_limits<int>::max()) +
+               "), got " + c.shortDump());
+      s.design.controlPointsPerRod = c.j->get<int>();
     }
   }
   return s;

@@ -1,0 +1,374 @@
+// Result archive (contract §3): round trip, atomic writing, clear rejection of
+// files that are not rodmesh archives.
+#include "io/archive.hh"
+
+#include <gtest/gtest.h>
+#include <hdf5.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <dirent.h>
+#include <fstream>
+#include <string>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <vector>
+
+namespace rodmesh {
+namespace {
+
+// A fresh temporary directory, removed (with its files) at the end.
+class TempDir {
+ public:
+  TempDir() {
+    char t[] = "/tmp/rodmesh_archive_test_XXXXXX";
+    if (!mkdtemp(t)) throw std::runtime_error("mkdtemp failed");
+    path_ = t;
+  }
+  ~TempDir() {
+    for (const std::string& f : files()) {
+      std::string p = path_ + "/" + f;
+      if (std::remove(p.c_str()) != 0) rmdir(p.c_str());
+    }
+    rmdir(path_.c_str());
+  }
+  const std::string& path() const { return path_; }
+  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
+  std::vector<std::string> files() const {
+    std::vector<std::string> out;
+    if (DIR* d = opendir(path_.c_str())) {
+      while (dirent* e = readdir(d)) {
+        std::string n = e->d_name;
+        if (n != "." && n != "..") out.push_back(n);
+      }
+      closedir(d);
+    }
+    return out;
+  }
+
+ private:
+  std::string path_;
+};
+
+bool fileExists(const std::string& p) {
+  struct stat st;
+  return ::stat(p.c_str(), &st) == 0;
+}
+
+MatX3 randomX3(int rows, double scale) {
+  MatX3 m = MatX3::Random(rows, 3) * scale;
+  return m;
+}
+
+Archive fullArchive() {
+  Archive a;
+  a.version = "9.9.9-test";
+  a.command = "optimize";
+  a.status = "not_converged";
+  a.sceneJson = "{\n  \"format\": \"rodmesh-scene/1\",\n  \"note\": \"unicode \xc3\xa9\\u00e9 and \\\"quotes\\\"\"\n}\n";
+  a.effects = "stretch,bend,twist";
+  a.effectsReason = "stretch: on (always); twist: on (the scene is not planar)";
+  a.dofsPerPose = 123;
+  a.nVertices = 5;
+  a.nEdges = 4;
+  a.nRods = 1;
+  a.nConnections = 0;
+  a.planar = 0;
+  a.restPositions = randomX3(5, 0.01);
+  a.radii = MatX2::Random(5, 2).cwiseAbs() * 1e-3;
+  a.initialRadii = MatX2::Constant(5, 2, 2e-3);
+  ArchivePose p0;
+  p0.name = "pull_left";
+  p0.positions = randomX3(5, 0.02);
+  p0.twist = Eigen::VectorXd::Random(4);
+  p0.target = randomX3(5, 0.02);
+  p0.residualNorm = 1.5e-9;
+  p0.rmsError = 3.25e-4;
+  p0.status = "converged";
+  p0.iterations = 7;
+  p0.timeSeconds = 0.125;
+  ArchivePose p1;  // no twist, no target, no rms
+  p1.name = "a_second pose";
+  p1.positions = randomX3(5, 0.02);
+  p1.residualNorm = 2.0;
+  p1.status = "not_converged";
+  p1.iterations = 100;
+  // Pose names out of alphabetical order: readers must keep scene order.
+  ArchivePose p2;
+  p2.name = "0_first_alphabetically";
+  p2.positions = randomX3(5, 0.02);
+  a.poses = {p0, p1, p2};
+  ArchiveFrames f;
+  f.name = "pull_left";
+  f.time = Eigen::VectorXd::LinSpaced(3, 0.0, 0.2);
+  f.positions = {randomX3(5, 1.0), randomX3(5, 1.0), randomX3(5, 1.0)};
+  a.frames = {f};
+  ArchiveHistory h;
+  h.iteration = {0, 1, 2};
+  h.timeSeconds = {0.0, 0.5, 1.25};
+  h.objective = {10.0, 5.0, 4.5};
+  h.rmsError = {1e-3, 5e-4, 4e-4};
+  a.history = h;
+  a.extraRootAttributes["solver"] = "ipopt 3.11";
+  return a;
+}
+
+TEST(Archive, RoundTripsEveryField) {
+  TempDir dir;
+  const Archive a = fullArchive();
+  const std::string path = dir / "out.h5";
+  writeArchive(a, path);
+  ASSERT_TRUE(fileExists(path));
+  EXPECT_EQ(dir.files(), std::vector<std::string>{"out.h5"}) << "no temporary file left behind";
+
+  const Archive b = readArchive(path);
+  EXPECT_EQ(b.format, "rodmesh-archive/1");
+  EXPECT_EQ(b.version, a.version);
+  EXPECT_EQ(b.command, a.command);
+  EXPECT_EQ(b.status, a.status);
+  EXPECT_EQ(b.sceneJson, a.sceneJson);
+  EXPECT_EQ(b.effects, a.effects);
+  EXPECT_EQ(b.effectsReason, a.effectsReason);
+  EXPECT_EQ(b.dofsPerPose, a.dofsPerPose);
+  EXPECT_EQ(b.nVertices, a.nVertices);
+  EXPECT_EQ(b.nEdges, a.nEdges);
+  EXPECT_EQ(b.nRods, a.nRods);
+  EXPECT_EQ(b.nConnections, a.nConnections);
+  EXPECT_EQ(b.planar, a.planar);
+  EXPECT_EQ(b.restPositions, a.restPositions);
+  EXPECT_EQ(b.radii, a.radii);
+  ASSERT_TRUE(b.initialRadii.has_value());
+  EXPECT_EQ(*b.initialRadii, *a.initialRadii);
+
+  ASSERT_EQ(b.poses.size(), a.poses.size());
+  for (std::size_t i = 0; i < a.poses.size(); ++i) {
+    SCOPED_TRACE("pose " + a.poses[i].name);
+    const ArchivePose &x = a.poses[i], &y = b.poses[i];
+    EXPECT_EQ(y.name, x.name) << "poses come back in the order written";
+    EXPECT_EQ(y.positions, x.positions);
+    EXPECT_EQ(y.twist.size(), x.twist.size());
+    if (x.twist.size()) {
+      EXPECT_EQ(y.twist, x.twist);
+    }
+    EXPECT_EQ(y.target.rows(), x.target.rows());
+    if (x.target.rows()) {
+      EXPECT_EQ(y.target, x.target);
+    }
+    EXPECT_EQ(y.residualNorm, x.residualNorm);
+    EXPECT_EQ(y.rmsError, x.rmsError);
+    EXPECT_EQ(y.status, x.status);
+    EXPECT_EQ(y.iterations, x.iterations);
+    EXPECT_EQ(y.timeSeconds, x.timeSeconds);
+  }
+
+  ASSERT_EQ(b.frames.size(), 1u);
+  EXPECT_EQ(b.frames[0].name, "pull_left");
+  EXPECT_EQ(b.frames[0].time, a.frames[0].time);
+  ASSERT_EQ(b.frames[0].positions.size(), 3u);
+  for (int t = 0; t < 3; ++t) EXPECT_EQ(b.frames[0].positions[t], a.frames[0].positions[t]);
+
+  ASSERT_TRUE(b.history.has_value());
+  EXPECT_EQ(b.history->iteration, a.history->iteration);
+  EXPECT_EQ(b.history->timeSeconds, a.history->timeSeconds);
+  EXPECT_EQ(b.history->objective, a.history->objective);
+  EXPECT_EQ(b.history->rmsError, a.history->rmsError);
+}
+
+TEST(Archive, OptionalPartsStayAbsent) {
+  TempDir dir;
+  Archive a = fullArchive();
+  a.command = "simulate";
+  a.status = "converged";
+  a.initialRadii.reset();
+  a.history.reset();
+  a.frames.clear();
+  for (ArchivePose& p : a.poses) {
+    p.twist.resize(0);
+    p.target.resize(0, 3);
+    p.rmsError.reset();
+  }
+  writeArchive(a, dir / "s.h5");
+  const Archive b = readArchive(dir / "s.h5");
+  EXPECT_FALSE(b.initialRadii.has_value());
+  EXPECT_FALSE(b.history.has_value());
+  EXPECT_TRUE(b.frames.empty());
+  ASSERT_EQ(b.poses.size(), 3u);
+  for (const ArchivePose& p : b.poses) {
+    EXPECT_EQ(p.twist.size(), 0);
+    EXPECT_EQ(p.target.rows(), 0);
+    EXPECT_FALSE(p.rmsError.has_value());
+  }
+
+  // And they are really absent from the file, not written empty.
+  hid_t f = H5Fopen((dir / "s.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  EXPECT_EQ(H5Lexists(f, "design/initial_radii", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Lexists(f, "history", H5P_DEFAULT), 0);
+  EXPECT_GT(H5Lexists(f, "poses/pull_left", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Lexists(f, "poses/pull_left/twist", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Lexists(f, "poses/pull_left/target", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Aexists_by_name(f, "poses/pull_left", "rms_error", H5P_DEFAULT), 0);
+  H5Fclose(f);
+}
+
+TEST(Archive, OverwritesAnExistingArchive) {
+  TempDir dir;
+  Archive a = fullArchive();
+  writeArchive(a, dir / "out.h5");
+  a.status = "converged";
+  a.poses.resize(1);
+  writeArchive(a, dir / "out.h5");
+  const Archive b = readArchive(dir / "out.h5");
+  EXPECT_EQ(b.status, "converged");
+  EXPECT_EQ(b.poses.size(), 1u);
+  EXPECT_EQ(dir.files(), std::vector<std::string>{"out.h5"});
+}
+
+TEST(Archive, NonexistentDirectoryThrowsAndCreatesNothing) {
+  TempDir dir;
+  const std::string path = dir / "missing/sub/out.h5";
+  EXPECT_THROW(writeArchive(fullArchive(), path), std::runtime_error);
+  EXPECT_FALSE(fileExists(path));
+  EXPECT_TRUE(dir.files().empty());
+}
+
+TEST(Archive, FailureHalfwayLeavesNoPartialFile) {
+  // A pose name with '/' makes HDF5 fail after the temporary file was created
+  // and partly written.
+  TempDir dir;
+  Archive a = fullArchive();
+  a.poses[1].name = "no/such/group";
+  const std::string path = dir / "out.h5";
+  EXPECT_THROW(writeArchive(a, path), std::runtime_error);
+  EXPECT_FALSE(fileExists(path));
+  EXPECT_TRUE(dir.files().empty()) << "temporary file left behind: " << (dir.files().empty() ? "" : dir.files()[0]);
+}
+
+TEST(Archive, FailureKeepsThePreviousArchiveIntact) {
+  TempDir dir;
+  const std::string path = dir / "out.h5";
+  Archive good = fullArchive();
+  writeArchive(good, path);
+  Archive bad = fullArchive();
+  bad.status = "converged";
+  bad.poses[0].name = "x/y";
+  EXPECT_THROW(writeArchive(bad, path), std::runtime_error);
+  const Archive b = readArchive(path);
+  EXPECT_EQ(b.status, good.status);
+  EXPECT_EQ(b.poses.size(), good.poses.size());
+  EXPECT_EQ(dir.files(), std::vector<std::string>{"out.h5"});
+}
+
+TEST(Archive, RenameOntoADirectoryFailsCleanly) {
+  TempDir dir;
+  const std::string path = dir / "taken";
+  ASSERT_EQ(mkdir(path.c_str(), 0755), 0);
+  ASSERT_TRUE(std::ofstream(path + "/keep").good());
+  EXPECT_THROW(writeArchive(fullArchive(), path), std::runtime_error);
+  EXPECT_EQ(dir.files(), std::vector<std::string>{"taken"}) << "temporary file left behind";
+  std::remove((path + "/keep").c_str());
+}
+
+std::string readError(const std::string& path) {
+  try {
+    readArchive(path);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "readArchive accepted " << path;
+  return "";
+}
+
+TEST(Archive, RejectsAMissingFile) {
+  TempDir dir;
+  const std::string path = dir / "nothing.h5";
+  const std::string msg = readError(path);
+  EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+}
+
+TEST(Archive, RejectsANonHdf5File) {
+  TempDir dir;
+  const std::string path = dir / "scene.json";
+  std::ofstream(path) << "{\"format\": \"rodmesh-scene/1\"}\n";
+  const std::string msg = readError(path);
+  EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("HDF5"), std::string::npos) << msg;
+}
+
+TEST(Archive, RejectsAnEmptyFile) {
+  TempDir dir;
+  const std::string path = dir / "empty.h5";
+  std::ofstream(path).flush();
+  const std::string msg = readError(path);
+  EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+}
+
+TEST(Archive, RejectsAnHdf5FileWithoutTheFormatAttribute) {
+  TempDir dir;
+  const std::string path = dir / "other.h5";
+  {
+    hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    hid_t g = H5Gcreate2(f, "poses", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    H5Gclose(g);
+    H5Fclose(f);
+  }
+  const std::string msg = readError(path);
+  EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("format"), std::string::npos) << msg;
+}
+
+// Writes a fixed-length string attribute, as numpy 'S' strings (h5py) or
+// Fortran/Matlab tools store them.
+void writeFixedStringAttr(hid_t obj, const char* name, const std::string& value, H5T_str_t pad, std::size_t size) {
+  hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, size);
+  H5Tset_strpad(type, pad);
+  hid_t space = H5Screate(H5S_SCALAR);
+  hid_t attr = H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
+  std::string buf = value;
+  buf.resize(size, '\0');
+  H5Awrite(attr, type, buf.data());
+  H5Aclose(attr);
+  H5Sclose(space);
+  H5Tclose(type);
+}
+
+TEST(Archive, ReadsFixedLengthStringAttributes) {
+  TempDir dir;
+  for (H5T_str_t pad : {H5T_STR_NULLPAD, H5T_STR_NULLTERM}) {
+    SCOPED_TRACE(pad == H5T_STR_NULLPAD ? "null-padded" : "null-terminated");
+    const std::string path = dir / "fixed.h5";
+    {
+      hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+      ASSERT_GE(f, 0);
+      // Null-padded strings may fill their size exactly; null-terminated ones
+      // need one more byte.
+      const std::size_t extra = pad == H5T_STR_NULLPAD ? 0 : 1;
+      writeFixedStringAttr(f, "format", "rodmesh-archive/1", pad, 17 + extra);
+      writeFixedStringAttr(f, "status", "converged", pad, 9 + extra);
+      writeFixedStringAttr(f, "command", "simulate", pad, 20);
+      H5Fclose(f);
+    }
+    Archive a;
+    ASSERT_NO_THROW(a = readArchive(path));
+    EXPECT_EQ(a.format, "rodmesh-archive/1");
+    EXPECT_EQ(a.status, "converged");
+    EXPECT_EQ(a.command, "simulate");
+    std::remove(path.c_str());
+  }
+}
+
+TEST(Archive, RejectsAnHdf5FileWithAnotherFormat) {
+  TempDir dir;
+  const std::string path = dir / "other.h5";
+  Archive a = fullArchive();
+  a.format = "someone-else/3";
+  writeArchive(a, path);
+  const std::string msg = readError(path);
+  EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("someone-else/3"), std::string::npos) << msg;
+}
+
+}  // namespace
+}  // namespace rodmesh

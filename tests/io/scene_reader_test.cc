@@ -1,0 +1,837 @@
+// Scene reader (contract §1): every kind of bad input is rejected with one
+// message naming the file, the key path and the offending index or value;
+// valid scenes parse to the right values.
+#include "io/scene_reader.hh"
+#include "io/scene_writer.hh"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+namespace rodmesh {
+namespace {
+
+using json = nlohmann::json;
+
+const char* kFile = "dir/my_scene.json";
+
+// A valid cantilever: 4 vertices along x, one rod, clamped at 0, loaded at 3.
+json baseScene() {
+  return json::parse(R"({
+    "format": "rodmesh-scene/1",
+    "material": {"young_modulus": 3.2e7, "poisson_ratio": 0.48, "density": 1200.0},
+    "vertices": [[0, 0, 0], [0.01, 0, 0], [0.02, 0, 0], [0.03, 0, 0]],
+    "rods": [{"vertices": [0, 1, 2, 3]}],
+    "radius": [0.002, 0.001],
+    "poses": [{
+      "name": "tip",
+      "clamped": [{"vertex": 0}],
+      "forces": [{"vertex": 3, "force": [0, 0, -0.5]}]
+    }]
+  })");
+}
+
+// Two rods meeting at vertex 3 (a connection), vertices 0..5.
+json twoRodScene() {
+  json j = baseScene();
+  j["vertices"] = json::parse("[[0,0,0],[0.01,0,0],[0.02,0,0],[0.03,0,0],[0.03,0.01,0],[0.03,0.02,0]]");
+  j["rods"] = json::parse(R"([{"vertices": [0, 1, 2, 3]}, {"vertices": [3, 4, 5]}])");
+  return j;
+}
+
+// Parses and returns the InputError message; records a failure when nothing
+// (or something other than InputError) is thrown.
+std::string errorOf(const std::string& text) {
+  try {
+    parseScene(text, kFile);
+  } catch (const InputError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "threw a non-InputError exception: " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "no InputError for:\n" << text;
+  return "";
+}
+std::string errorOf(const json& j) { return errorOf(j.dump(1)); }
+
+// The message is one line, starts with "FILE: KEYPATH: " and contains every
+// value in `values`.
+void expectMessage(const std::string& msg, const std::string& keyPath, const std::vector<std::string>& values = {}) {
+  SCOPED_TRACE("message: " + msg);
+  ASSERT_FALSE(msg.empty());
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << "message must be a single line";
+  const std::string prefix = std::string(kFile) + ": " + keyPath + ": ";
+  EXPECT_EQ(msg.rfind(prefix, 0), 0u) << "expected prefix \"" << prefix << "\"";
+  for (const std::string& v : values) EXPECT_NE(msg.find(v), std::string::npos) << "missing \"" << v << "\"";
+}
+
+bool contains(const std::string& s, const std::string& sub) { return s.find(sub) != std::string::npos; }
+
+// ---------------------------------------------------------------- JSON syntax
+
+TEST(SceneReaderErrors, UnparseableJsonGivesLineAndColumn) {
+  const std::string text = "{\n  \"format\": \"rodmesh-scene/1\",\n  \"material\": {,\n}\n";
+  const std::string msg = errorOf(text);
+  SCOPED_TRACE(msg);
+  EXPECT_EQ(msg.rfind(std::string(kFile) + ": ", 0), 0u);
+  EXPECT_EQ(msg.find('\n'), std::string::npos);
+  // The offending ',' is on line 3, column 16.
+  EXPECT_TRUE(contains(msg, "line 3, column 16")) << msg;
+}
+
+TEST(SceneReaderErrors, TruncatedJson) {
+  std::string text = baseScene().dump(1);
+  text.resize(text.size() / 2);
+  const std::string msg = errorOf(text);
+  EXPECT_EQ(msg.rfind(std::string(kFile) + ": ", 0), 0u) << msg;
+  EXPECT_TRUE(contains(msg, "line ")) << msg;
+}
+
+TEST(SceneReaderErrors, EmptyFile) {
+  const std::string msg = errorOf(std::string(""));
+  EXPECT_EQ(msg.rfind(std::string(kFile) + ": ", 0), 0u) << msg;
+}
+
+TEST(SceneReaderErrors, TopLevelNotAnObject) {
+  expectMessage(errorOf(std::string("[1, 2, 3]")), "<root>");
+}
+
+TEST(SceneReaderErrors, MissingFileNamesThePath) {
+  try {
+    readSceneFile("/nonexistent-dir/none.json");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("/nonexistent-dir/none.json: ", 0), 0u) << e.what();
+  }
+}
+
+// ---------------------------------------------------------------- format
+
+TEST(SceneReaderErrors, MissingFormat) {
+  json j = baseScene();
+  j.erase("format");
+  expectMessage(errorOf(j), "format");
+}
+
+TEST(SceneReaderErrors, WrongFormat) {
+  json j = baseScene();
+  j["format"] = "rodmesh-scene/2";
+  expectMessage(errorOf(j), "format", {"rodmesh-scene/2"});
+}
+
+TEST(SceneReaderErrors, FormatNotAString) {
+  json j = baseScene();
+  j["format"] = 1;
+  expectMessage(errorOf(j), "format", {"1"});
+}
+
+// ---------------------------------------------------------------- missing / mistyped keys
+
+TEST(SceneReaderErrors, MissingMaterial) {
+  json j = baseScene();
+  j.erase("material");
+  expectMessage(errorOf(j), "material");
+}
+
+TEST(SceneReaderErrors, MaterialNotAnObject) {
+  json j = baseScene();
+  j["material"] = json::array({1, 2, 3});
+  expectMessage(errorOf(j), "material");
+}
+
+TEST(SceneReaderErrors, MissingMaterialKeys) {
+  for (const char* key : {"young_modulus", "poisson_ratio", "density"}) {
+    json j = baseScene();
+    j["material"].erase(key);
+    expectMessage(errorOf(j), std::string("material.") + key);
+  }
+}
+
+TEST(SceneReaderErrors, MistypedYoungModulus) {
+  json j = baseScene();
+  j["material"]["young_modulus"] = "3.2e7";
+  expectMessage(errorOf(j), "material.young_modulus", {"3.2e7"});
+}
+
+TEST(SceneReaderErrors, MissingVertices) {
+  json j = baseScene();
+  j.erase("vertices");
+  expectMessage(errorOf(j), "vertices");
+}
+
+TEST(SceneReaderErrors, VerticesNotAnArray) {
+  json j = baseScene();
+  j["vertices"] = 4;
+  expectMessage(errorOf(j), "vertices", {"4"});
+}
+
+TEST(SceneReaderErrors, VertexWithTwoComponents) {
+  json j = baseScene();
+  j["vertices"][2] = json::array({0.02, 0.0});
+  expectMessage(errorOf(j), "vertices[2]");
+}
+
+TEST(SceneReaderErrors, VertexComponentNotANumber) {
+  json j = baseScene();
+  j["vertices"][1][0] = "x";
+  expectMessage(errorOf(j), "vertices[1][0]", {"x"});
+}
+
+TEST(SceneReaderErrors, MissingRods) {
+  json j = baseScene();
+  j.erase("rods");
+  expectMessage(errorOf(j), "rods");
+}
+
+TEST(SceneReaderErrors, EmptyRods) {
+  json j = baseScene();
+  j["rods"] = json::array();
+  expectMessage(errorOf(j), "rods");
+}
+
+TEST(SceneReaderErrors, RodWithoutVerticesKey) {
+  json j = baseScene();
+  j["rods"][0] = json::object({{"vertex", {0, 1, 2, 3}}});
+  expectMessage(errorOf(j), "rods[0].vertices");
+}
+
+TEST(SceneReaderErrors, RodWithASingleVertex) {
+  json j = twoRodScene();
+  j["rods"][1]["vertices"] = {3};
+  expectMessage(errorOf(j), "rods[1].vertices", {"1"});
+}
+
+TEST(SceneReaderErrors, RodIndexNotAnInteger) {
+  json j = baseScene();
+  j["rods"][0]["vertices"][2] = 1.5;
+  expectMessage(errorOf(j), "rods[0].vertices[2]", {"1.5"});
+}
+
+TEST(SceneReaderErrors, MissingPoses) {
+  json j = baseScene();
+  j.erase("poses");
+  expectMessage(errorOf(j), "poses");
+}
+
+TEST(SceneReaderErrors, EmptyPoses) {
+  json j = baseScene();
+  j["poses"] = json::array();
+  expectMessage(errorOf(j), "poses");
+}
+
+TEST(SceneReaderErrors, PoseNotAnObject) {
+  json j = baseScene();
+  j["poses"].push_back("second");
+  expectMessage(errorOf(j), "poses[1]", {"second"});
+}
+
+TEST(SceneReaderErrors, FixedNotAnArray) {
+  json j = baseScene();
+  j["poses"][0]["fixed"] = json::object({{"vertex", 0}});
+  expectMessage(errorOf(j), "poses[0].fixed");
+}
+
+TEST(SceneReaderErrors, FixedEntryWithoutVertex) {
+  json j = baseScene();
+  j["poses"][0]["fixed"] = json::parse(R"([{"vertex": 1}, {"position": [0, 0, 0]}])");
+  expectMessage(errorOf(j), "poses[0].fixed[1].vertex");
+}
+
+TEST(SceneReaderErrors, FixedPositionMistyped) {
+  json j = baseScene();
+  j["poses"][0]["fixed"] = json::parse(R"([{"vertex": 1, "position": [0, 0]}])");
+  expectMessage(errorOf(j), "poses[0].fixed[0].position");
+}
+
+TEST(SceneReaderErrors, ForceWithoutForceKey) {
+  json j = baseScene();
+  j["poses"][0]["forces"][0].erase("force");
+  expectMessage(errorOf(j), "poses[0].forces[0].force");
+}
+
+TEST(SceneReaderErrors, ForceComponentMistyped) {
+  json j = baseScene();
+  j["poses"][0]["forces"][0]["force"][2] = nullptr;
+  expectMessage(errorOf(j), "poses[0].forces[0].force[2]", {"null"});
+}
+
+TEST(SceneReaderErrors, GravityOfWrongLength) {
+  json j = baseScene();
+  j["gravity"] = {0.0, -9.81};
+  expectMessage(errorOf(j), "gravity");
+}
+
+TEST(SceneReaderErrors, NormalsOfWrongCount) {
+  json j = baseScene();
+  j["normals"] = json::parse("[[0,0,1],[0,0,1]]");
+  expectMessage(errorOf(j), "normals", {"4", "2"});
+}
+
+TEST(SceneReaderErrors, ZeroNormal) {
+  json j = baseScene();
+  j["normals"] = json::parse("[[0,0,1],[0,0,1],[0,0,0],[0,0,1]]");
+  expectMessage(errorOf(j), "normals[2]");
+}
+
+TEST(SceneReaderErrors, MissingRadiusAndRadii) {
+  json j = baseScene();
+  j.erase("radius");
+  expectMessage(errorOf(j), "radius");
+}
+
+// ---------------------------------------------------------------- non-finite numbers
+
+TEST(SceneReaderErrors, NonFiniteVertexCoordinate) {
+  // JSON has no NaN/Inf literal; an overflowing number is how one gets in.
+  std::string text = baseScene().dump();
+  const std::string from = "[0.02,0,0]";
+  const auto pos = text.find(from);
+  ASSERT_NE(pos, std::string::npos) << text;
+  text.replace(pos, from.size(), "[0.02,1e999,0]");
+  // The JSON parser rejects the overflow before the reader sees a key path;
+  // the message must still name the file and the offending value.
+  const std::string msg = errorOf(text);
+  EXPECT_EQ(msg.rfind(std::string(kFile) + ": ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("1e999"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+}
+
+TEST(SceneReaderErrors, NonFiniteYoungModulus) {
+  std::string text = baseScene().dump();
+  const std::string from = "\"young_modulus\":32000000.0";
+  const auto pos = text.find(from);
+  ASSERT_NE(pos, std::string::npos) << text;
+  text.replace(pos, from.size(), "\"young_modulus\":-1e400");
+  const std::string msg = errorOf(text);
+  EXPECT_EQ(msg.rfind(std::string(kFile) + ": ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("-1e400"), std::string::npos) << msg;
+}
+
+// ---------------------------------------------------------------- index ranges
+
+TEST(SceneReaderErrors, RodVertexIndexOutOfRange) {
+  json j = baseScene();
+  j["rods"][0]["vertices"][2] = 17;
+  expectMessage(errorOf(j), "rods[0].vertices[2]", {"17"});
+}
+
+TEST(SceneReaderErrors, RodVertexIndexNegative) {
+  json j = baseScene();
+  j["rods"][0]["vertices"][0] = -1;
+  expectMessage(errorOf(j), "rods[0].vertices[0]", {"-1"});
+}
+
+TEST(SceneReaderErrors, RodVertexIndexBeyondInt64) {
+  // The message must show the value as written, not a wrapped-around one.
+  json j = baseScene();
+  j["rods"][0]["vertices"][1] = 18446744073709551615ull;
+  expectMessage(errorOf(j), "rods[0].vertices[1]", {"18446744073709551615"});
+  j["rods"][0]["vertices"][1] = 4294967297ll;  // 2^32 + 1: must not wrap to 1
+  expectMessage(errorOf(j), "rods[0].vertices[1]", {"4294967297"});
+}
+
+TEST(SceneReaderErrors, ForceVertexIndexAsFloat) {
+  json j = baseScene();
+  j["poses"][0]["forces"][0]["vertex"] = 3.0;
+  expectMessage(errorOf(j), "poses[0].forces[0].vertex", {"3.0"});
+}
+
+TEST(SceneReaderErrors, RodVertexIndexJustPastTheEnd) {
+  json j = baseScene();
+  j["rods"][0]["vertices"][3] = 4;  // 4 vertices: valid indices 0..3
+  expectMessage(errorOf(j), "rods[0].vertices[3]", {"4"});
+}
+
+TEST(SceneReaderErrors, FixedVertexIndexOutOfRange) {
+  json j = baseScene();
+  j["poses"][0]["fixed"] = json::parse(R"([{"vertex": 1}, {"vertex": 17}])");
+  expectMessage(errorOf(j), "poses[0].fixed[1].vertex", {"17"});
+}
+
+TEST(SceneReaderErrors, ClampedVertexIndexOutOfRange) {
+  json j = baseScene();
+  j["poses"].push_back(json::parse(R"({"clamped": [{"vertex": 0}, {"vertex": 99}]})"));
+  expectMessage(errorOf(j), "poses[1].clamped[1].vertex", {"99"});
+}
+
+TEST(SceneReaderErrors, ForceVertexIndexOutOfRange) {
+  json j = baseScene();
+  j["poses"][0]["forces"][0]["vertex"] = 4;
+  expectMessage(errorOf(j), "poses[0].forces[0].vertex", {"4"});
+}
+
+TEST(SceneReaderErrors, TwistingMomentVertexIndexOutOfRange) {
+  json j = baseScene();
+  j["poses"][0]["twisting_moments"] = json::parse(R"([{"vertex": 40, "moment": 0.001}])");
+  expectMessage(errorOf(j), "poses[0].twisting_moments[0].vertex", {"40"});
+}
+
+// ---------------------------------------------------------------- rod topology and geometry
+
+TEST(SceneReaderErrors, ZeroLengthEdge) {
+  json j = baseScene();
+  j["vertices"][2] = j["vertices"][1];
+  expectMessage(errorOf(j), "rods[0].vertices[2]", {"1", "2"});
+}
+
+TEST(SceneReaderErrors, VertexRepeatedInOneRod) {
+  json j = baseScene();
+  j["rods"][0]["vertices"] = {0, 1, 2, 1, 3};
+  expectMessage(errorOf(j), "rods[0].vertices[3]", {"1"});
+}
+
+TEST(SceneReaderErrors, VertexSharedByTwoRodInteriors) {
+  // Vertex 1 is interior to both rods (a crossing, which the contract forbids).
+  json j = baseScene();
+  j["vertices"] = json::parse("[[0,0,0],[0.01,0,0],[0.02,0,0],[0.01,-0.01,0],[0.01,0.01,0]]");
+  j["rods"] = json::parse(R"([{"vertices": [0, 1, 2]}, {"vertices": [3, 1, 4]}])");
+  j["poses"][0]["forces"][0]["vertex"] = 2;
+  expectMessage(errorOf(j), "rods[1].vertices[1]", {"1", "rods[0]"});
+}
+
+TEST(SceneReaderErrors, RodEndOnAnotherRodsInterior) {
+  // Rod 1 ends at vertex 1, which is interior to rod 0 (a T-junction).
+  json j = baseScene();
+  j["vertices"] = json::parse("[[0,0,0],[0.01,0,0],[0.02,0,0],[0.01,0.01,0]]");
+  j["rods"] = json::parse(R"([{"vertices": [0, 1, 2]}, {"vertices": [1, 3]}])");
+  j["poses"][0]["forces"][0]["vertex"] = 2;
+  expectMessage(errorOf(j), "rods[1].vertices[0]", {"1", "rods[0]"});
+}
+
+TEST(SceneReaderErrors, RodInteriorOnAnotherRodsEnd) {
+  // Same T-junction, rods listed the other way round.
+  json j = baseScene();
+  j["vertices"] = json::parse("[[0,0,0],[0.01,0,0],[0.02,0,0],[0.01,0.01,0]]");
+  j["rods"] = json::parse(R"([{"vertices": [3, 1]}, {"vertices": [0, 1, 2]}])");
+  j["poses"][0]["forces"][0]["vertex"] = 2;
+  expectMessage(errorOf(j), "rods[1].vertices[1]", {"1", "rods[0]"});
+}
+
+TEST(SceneReaderErrors, VertexUsedByNoRod) {
+  json j = baseScene();
+  j["vertices"].push_back({0.05, 0.0, 0.0});
+  expectMessage(errorOf(j), "vertices[4]", {"4"});
+}
+
+// ---------------------------------------------------------------- cross sections
+
+TEST(SceneReaderErrors, ZeroRadius) {
+  json j = baseScene();
+  j["radius"] = {0.002, 0.0};
+  expectMessage(errorOf(j), "radius[1]", {"0"});
+}
+
+TEST(SceneReaderErrors, NegativeRadius) {
+  json j = baseScene();
+  j["radius"] = {-0.002, 0.001};
+  expectMessage(errorOf(j), "radius[0]", {"-0.002"});
+}
+
+TEST(SceneReaderErrors, NonPositiveRadiiEntry) {
+  json j = baseScene();
+  j.erase("radius");
+  j["radii"] = json::parse("[[0.002,0.001],[0.002,0.001],[-0.25,0.001],[0.002,0.001]]");
+  expectMessage(errorOf(j), "radii[2][0]", {"-0.25"});
+}
+
+TEST(SceneReaderErrors, NonPositiveRadiiOverridesValidRadius) {
+  json j = baseScene();
+  j["radii"] = json::parse("[[0.002,0.001],[0.002,0.001],[0.002,0.001],[0.002,0]]");
+  expectMessage(errorOf(j), "radii[3][1]", {"0"});
+}
+
+TEST(SceneReaderErrors, WrongRadiiCount) {
+  json j = baseScene();
+  j["radii"] = json::parse("[[0.002,0.001],[0.002,0.001],[0.002,0.001]]");
+  expectMessage(errorOf(j), "radii", {"4", "3"});
+}
+
+TEST(SceneReaderErrors, RadiiPairOfWrongLength) {
+  json j = baseScene();
+  j["radii"] = json::parse("[[0.002,0.001],[0.002],[0.002,0.001],[0.002,0.001]]");
+  expectMessage(errorOf(j), "radii[1]");
+}
+
+// ---------------------------------------------------------------- material
+
+TEST(SceneReaderErrors, ZeroYoungModulus) {
+  json j = baseScene();
+  j["material"]["young_modulus"] = 0.0;
+  expectMessage(errorOf(j), "material.young_modulus", {"0"});
+}
+
+TEST(SceneReaderErrors, NegativeYoungModulus) {
+  json j = baseScene();
+  j["material"]["young_modulus"] = -5e6;
+  expectMessage(errorOf(j), "material.young_modulus", {"-5e+06"});
+}
+
+TEST(SceneReaderErrors, PoissonRatioTooLarge) {
+  json j = baseScene();
+  j["material"]["poisson_ratio"] = 0.5;
+  expectMessage(errorOf(j), "material.poisson_ratio", {"0.5"});
+  j["material"]["poisson_ratio"] = 0.75;
+  expectMessage(errorOf(j), "material.poisson_ratio", {"0.75"});
+}
+
+TEST(SceneReaderErrors, PoissonRatioTooSmall) {
+  json j = baseScene();
+  j["material"]["poisson_ratio"] = -1.0;
+  expectMessage(errorOf(j), "material.poisson_ratio", {"-1"});
+}
+
+TEST(SceneReaderErrors, NonPositiveDensity) {
+  json j = baseScene();
+  j["material"]["density"] = 0;
+  expectMessage(errorOf(j), "material.density", {"0"});
+  j["material"]["density"] = -1200.5;
+  expectMessage(errorOf(j), "material.density", {"-1200.5"});
+}
+
+// ---------------------------------------------------------------- design
+
+TEST(SceneReaderErrors, RadiusBoundsMinAboveMax) {
+  json j = baseScene();
+  j["design"] = json::parse(R"({"parameters": ["radii"], "radius_bounds": [0.005, 0.001]})");
+  expectMessage(errorOf(j), "design.radius_bounds", {"0.005", "0.001"});
+}
+
+TEST(SceneReaderErrors, RadiusBoundsNonPositiveMin) {
+  json j = baseScene();
+  j["design"] = json::parse(R"({"radius_bounds": [0.0, 0.001]})");
+  expectMessage(errorOf(j), "design.radius_bounds[0]", {"0"});
+}
+
+TEST(SceneReaderErrors, UnknownDesignParameter) {
+  json j = baseScene();
+  j["design"] = json::parse(R"({"parameters": ["radii", "youngs"]})");
+  expectMessage(errorOf(j), "design.parameters[1]", {"youngs"});
+}
+
+TEST(SceneReaderErrors, ControlPointsBeyondInt) {
+  json j = baseScene();
+  j["design"] = json::parse(R"({"control_points_per_rod": 4294967297})");  // 2^32 + 1
+  expectMessage(errorOf(j), "design.control_points_per_rod", {"4294967297"});
+}
+
+TEST(SceneReaderErrors, TooFewControlPoints) {
+  json j = baseScene();
+  j["design"] = json::parse(R"({"control_points_per_rod": 1})");
+  expectMessage(errorOf(j), "design.control_points_per_rod", {"1"});
+}
+
+// ---------------------------------------------------------------- targets
+
+TEST(SceneReaderErrors, TargetOfWrongLength) {
+  json j = baseScene();
+  j["poses"][0]["target"] = json::parse("[[0,0,0],[0.01,0,0],[0.02,0,0]]");
+  expectMessage(errorOf(j), "poses[0].target", {"4", "3"});
+}
+
+TEST(SceneReaderErrors, TargetEntryMistyped) {
+  json j = baseScene();
+  j["poses"][0]["target"] = json::parse("[[0,0,0],[0.01,0,0],[0.02,0,\"z\"],[0.03,0,0]]");
+  expectMessage(errorOf(j), "poses[0].target[2][2]", {"z"});
+}
+
+// ---------------------------------------------------------------- effects
+
+TEST(SceneReaderErrors, UnknownEffectName) {
+  json j = baseScene();
+  j["effects"] = {"stretch", "bending"};
+  expectMessage(errorOf(j), "effects[1]", {"bending"});
+}
+
+TEST(SceneReaderErrors, EffectsWithoutStretch) {
+  json j = baseScene();
+  j["effects"] = {"bend", "twist"};
+  expectMessage(errorOf(j), "effects", {"stretch"});
+}
+
+TEST(SceneReaderErrors, GravityEffectWithoutGravityVector) {
+  json j = baseScene();
+  j["effects"] = {"stretch", "bend", "gravity"};
+  expectMessage(errorOf(j), "effects", {"gravity"});
+}
+
+TEST(SceneReaderErrors, EffectNotAString) {
+  json j = baseScene();
+  j["effects"] = json::parse(R"(["stretch", 3])");
+  expectMessage(errorOf(j), "effects[1]", {"3"});
+}
+
+// ---------------------------------------------------------------- poses
+
+TEST(SceneReaderErrors, DuplicatePoseNames) {
+  json j = baseScene();
+  j["poses"].push_back(j["poses"][0]);
+  expectMessage(errorOf(j), "poses[1].name", {"tip"});
+}
+
+TEST(SceneReaderErrors, ExplicitNameCollidesWithDefaultName) {
+  json j = baseScene();
+  j["poses"][0].erase("name");                                            // defaults to pose0
+  j["poses"].push_back(json::parse(R"({"name": "pose0", "fixed": [{"vertex": 0}]})"));
+  expectMessage(errorOf(j), "poses[1].name", {"pose0"});
+}
+
+TEST(SceneReaderErrors, PoseNameWithSlash) {
+  // Pose names become HDF5 group names in the archive.
+  json j = baseScene();
+  j["poses"][0]["name"] = "a/b";
+  expectMessage(errorOf(j), "poses[0].name", {"a/b"});
+}
+
+TEST(SceneReaderErrors, NegativePoseWeight) {
+  json j = baseScene();
+  j["poses"][0]["weight"] = -2.5;
+  expectMessage(errorOf(j), "poses[0].weight", {"-2.5"});
+}
+
+TEST(SceneReaderErrors, DuplicateFixedVertex) {
+  json j = baseScene();
+  j["poses"][0]["fixed"] = json::parse(R"([{"vertex": 2}, {"vertex": 2, "position": [0, 0, 0]}])");
+  expectMessage(errorOf(j), "poses[0].fixed[1].vertex", {"2"});
+}
+
+TEST(SceneReaderErrors, DuplicateClampedVertex) {
+  json j = baseScene();
+  j["poses"][0]["clamped"] = json::parse(R"([{"vertex": 0}, {"vertex": 0}])");
+  expectMessage(errorOf(j), "poses[0].clamped[1].vertex", {"0"});
+}
+
+TEST(SceneReaderErrors, TwistingMomentOnInteriorVertex) {
+  json j = baseScene();
+  j["poses"][0]["twisting_moments"] = json::parse(R"([{"vertex": 3, "moment": 0.001}, {"vertex": 2, "moment": 0.001}])");
+  expectMessage(errorOf(j), "poses[0].twisting_moments[1].vertex", {"2"});
+}
+
+TEST(SceneReaderErrors, TwistingMomentOnConnection) {
+  json j = twoRodScene();
+  j["poses"][0]["twisting_moments"] = json::parse(R"([{"vertex": 3, "moment": 0.001}])");
+  expectMessage(errorOf(j), "poses[0].twisting_moments[0].vertex", {"3"});
+}
+
+TEST(SceneReaderErrors, TwistingMomentMistyped) {
+  json j = baseScene();
+  j["poses"][0]["twisting_moments"] = json::parse(R"([{"vertex": 3, "moment": [0, 0, 1]}])");
+  expectMessage(errorOf(j), "poses[0].twisting_moments[0].moment");
+}
+
+// ================================================================ valid scenes
+
+TEST(SceneReader, ParsesAValidSceneWithTheRightValues) {
+  json j = twoRodScene();
+  j["normals"] = json::parse("[[0,0,2],[0,0,1],[0,0,1],[0,0,1],[0,0,1],[0,0,1]]");
+  j["radii"] = json::parse("[[0.002,0.001],[0.003,0.0015],[0.002,0.001],[0.002,0.001],[0.002,0.001],[0.001,0.0005]]");
+  j["gravity"] = {0.0, 0.0, -9.81};
+  j["effects"] = {"stretch", "bend", "gravity"};
+  j["poses"] = json::parse(R"([
+    {"name": "a", "weight": 2.5,
+     "fixed": [{"vertex": 5, "position": [0.03, 0.02, 0.001]}],
+     "clamped": [{"vertex": 0}],
+     "forces": [{"vertex": 3, "force": [0.1, -0.2, 0.3]}],
+     "twisting_moments": [{"vertex": 5, "moment": 0.004}],
+     "target": [[0,0,0],[0.01,0,0],[0.02,0,0],[0.03,0,0],[0.03,0.01,0],[0.03,0.02,0.5]]}
+  ])");
+  j["design"] = json::parse(R"({"parameters": ["radii", "rest_shape"], "radius_bounds": [0.001, 0.005],
+                                "control_points_per_rod": 5})");
+  const std::string text = j.dump(2);
+  const Scene s = parseScene(text, kFile);
+  EXPECT_TRUE(lastSceneWarnings().empty());
+
+  EXPECT_EQ(s.sourcePath, kFile);
+  EXPECT_EQ(s.sourceText, text);
+  EXPECT_DOUBLE_EQ(s.material.youngModulus, 3.2e7);
+  EXPECT_DOUBLE_EQ(s.material.poissonRatio, 0.48);
+  EXPECT_DOUBLE_EQ(s.material.density, 1200.0);
+  ASSERT_EQ(s.vertices.size(), 6u);
+  EXPECT_EQ(s.vertices[4], Vec3(0.03, 0.01, 0.0));
+  ASSERT_EQ(s.normals.size(), 6u);
+  EXPECT_NEAR((s.normals[0] - Vec3(0, 0, 1)).norm(), 0.0, 1e-15) << "normals are normalised";
+  ASSERT_EQ(s.rods.size(), 2u);
+  EXPECT_EQ(s.rods[0].vertices, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(s.rods[1].vertices, (std::vector<int>{3, 4, 5}));
+  EXPECT_FALSE(s.rods[0].normal.has_value());
+  ASSERT_EQ(s.radii.size(), 6u);
+  EXPECT_EQ(s.radii[1], Vec2(0.003, 0.0015));
+  EXPECT_EQ(s.radii[5], Vec2(0.001, 0.0005));
+  ASSERT_TRUE(s.gravity.has_value());
+  EXPECT_EQ(*s.gravity, Vec3(0, 0, -9.81));
+  ASSERT_TRUE(s.effects.has_value());
+  EXPECT_EQ(*s.effects, (std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Gravity}));
+
+  ASSERT_EQ(s.poses.size(), 1u);
+  const Pose& p = s.poses[0];
+  EXPECT_EQ(p.name, "a");
+  EXPECT_DOUBLE_EQ(p.weight, 2.5);
+  ASSERT_EQ(p.fixed.size(), 1u);
+  EXPECT_EQ(p.fixed[0].vertex, 5);
+  ASSERT_TRUE(p.fixed[0].position.has_value());
+  EXPECT_EQ(*p.fixed[0].position, Vec3(0.03, 0.02, 0.001));
+  ASSERT_EQ(p.clamped.size(), 1u);
+  EXPECT_EQ(p.clamped[0].vertex, 0);
+  ASSERT_EQ(p.forces.size(), 1u);
+  EXPECT_EQ(p.forces[0].vertex, 3);
+  EXPECT_EQ(p.forces[0].force, Vec3(0.1, -0.2, 0.3));
+  ASSERT_EQ(p.twistingMoments.size(), 1u);
+  EXPECT_EQ(p.twistingMoments[0].vertex, 5);
+  EXPECT_DOUBLE_EQ(p.twistingMoments[0].moment, 0.004);
+  ASSERT_EQ(p.target.size(), 6u);
+  EXPECT_EQ(p.target[5], Vec3(0.03, 0.02, 0.5));
+
+  EXPECT_TRUE(s.design.present);
+  EXPECT_TRUE(s.design.radii);
+  EXPECT_TRUE(s.design.restShape);
+  EXPECT_TRUE(s.design.hasRadiusBounds);
+  EXPECT_DOUBLE_EQ(s.design.radiusMin, 0.001);
+  EXPECT_DOUBLE_EQ(s.design.radiusMax, 0.005);
+  EXPECT_EQ(s.design.controlPointsPerRod, 5);
+}
+
+TEST(SceneReader, UniformRadiusAppliesToEveryVertex) {
+  const Scene s = parseScene(baseScene().dump(), kFile);
+  ASSERT_EQ(s.radii.size(), 4u);
+  for (const Vec2& r : s.radii) EXPECT_EQ(r, Vec2(0.002, 0.001));
+}
+
+TEST(SceneReader, Defaults) {
+  json j = baseScene();
+  j["poses"] = json::parse(R"([
+    {"fixed": [{"vertex": 0}, {"vertex": 1}], "forces": [{"vertex": 3, "force": [0, -1, 0]}]},
+    {"clamped": [{"vertex": 0}]}
+  ])");
+  const Scene s = parseScene(j.dump(), kFile);
+  ASSERT_EQ(s.poses.size(), 2u);
+  EXPECT_EQ(s.poses[0].name, "pose0");
+  EXPECT_EQ(s.poses[1].name, "pose1");
+  EXPECT_DOUBLE_EQ(s.poses[0].weight, 1.0);
+  EXPECT_DOUBLE_EQ(s.poses[1].weight, 1.0);
+  ASSERT_EQ(s.poses[0].fixed.size(), 2u);
+  EXPECT_FALSE(s.poses[0].fixed[0].position.has_value()) << "default: hold at the rest position";
+  EXPECT_TRUE(s.poses[0].target.empty());
+  EXPECT_TRUE(s.normals.empty());
+  EXPECT_FALSE(s.gravity.has_value());
+  EXPECT_FALSE(s.effects.has_value()) << "absent effects are inferred later";
+  EXPECT_FALSE(s.design.present);
+}
+
+TEST(SceneReader, RoundTripsThroughSceneToJson) {
+  json j = twoRodScene();
+  j["normals"] = json::parse("[[0,0,1],[0,0,1],[0,0,1],[0,0,1],[0,0,1],[0,0,1]]");
+  j["rods"][0]["normal"] = {0, 0, 1};
+  j["radii"] = json::parse("[[0.002,0.001],[0.003,0.0015],[0.002,0.001],[0.002,0.001],[0.002,0.001],[0.001,0.0005]]");
+  j["gravity"] = {0.0, 0.0, -9.81};
+  j["effects"] = {"stretch", "bend", "twist", "gravity"};
+  j["poses"] = json::parse(R"([
+    {"name": "a", "weight": 0.5, "fixed": [{"vertex": 5, "position": [0.03, 0.02, 0.001]}, {"vertex": 4}],
+     "clamped": [{"vertex": 0}], "forces": [{"vertex": 3, "force": [0.1, -0.2, 0.3]}],
+     "target": [[0,0,0],[0.01,0,0],[0.02,0,0],[0.03,0,0],[0.03,0.01,0],[0.03,0.02,0.5]]},
+    {"forces": [{"vertex": 2, "force": [0, 0, 1e-3]}], "clamped": [{"vertex": 5}],
+     "twisting_moments": [{"vertex": 0, "moment": -0.002}]}
+  ])");
+  j["design"] = json::parse(R"({"parameters": ["rest_shape"], "radius_bounds": [0.0005, 0.004],
+                                "control_points_per_rod": 3})");
+  const Scene a = parseScene(j.dump(), kFile);
+  const std::string text = sceneToJson(a);
+  const Scene b = parseScene(text, "roundtrip.json");
+  EXPECT_TRUE(lastSceneWarnings().empty());
+
+  EXPECT_EQ(b.material.youngModulus, a.material.youngModulus);
+  EXPECT_EQ(b.material.poissonRatio, a.material.poissonRatio);
+  EXPECT_EQ(b.material.density, a.material.density);
+  EXPECT_EQ(b.vertices, a.vertices);
+  EXPECT_EQ(b.normals, a.normals);
+  ASSERT_EQ(b.rods.size(), a.rods.size());
+  for (std::size_t r = 0; r < a.rods.size(); ++r) {
+    EXPECT_EQ(b.rods[r].vertices, a.rods[r].vertices);
+    EXPECT_EQ(b.rods[r].normal, a.rods[r].normal);
+  }
+  EXPECT_EQ(b.radii, a.radii);
+  EXPECT_EQ(b.gravity, a.gravity);
+  EXPECT_EQ(b.effects, a.effects);
+  ASSERT_EQ(b.poses.size(), a.poses.size());
+  for (std::size_t p = 0; p < a.poses.size(); ++p) {
+    const Pose &x = a.poses[p], &y = b.poses[p];
+    EXPECT_EQ(y.name, x.name);
+    EXPECT_EQ(y.weight, x.weight);
+    ASSERT_EQ(y.fixed.size(), x.fixed.size());
+    for (std::size_t i = 0; i < x.fixed.size(); ++i) {
+      EXPECT_EQ(y.fixed[i].vertex, x.fixed[i].vertex);
+      EXPECT_EQ(y.fixed[i].position, x.fixed[i].position);
+    }
+    ASSERT_EQ(y.clamped.size(), x.clamped.size());
+    for (std::size_t i = 0; i < x.clamped.size(); ++i) EXPECT_EQ(y.clamped[i].vertex, x.clamped[i].vertex);
+    ASSERT_EQ(y.forces.size(), x.forces.size());
+    for (std::size_t i = 0; i < x.forces.size(); ++i) {
+      EXPECT_EQ(y.forces[i].vertex, x.forces[i].vertex);
+      EXPECT_EQ(y.forces[i].force, x.forces[i].force);
+    }
+    ASSERT_EQ(y.twistingMoments.size(), x.twistingMoments.size());
+    for (std::size_t i = 0; i < x.twistingMoments.size(); ++i) {
+      EXPECT_EQ(y.twistingMoments[i].vertex, x.twistingMoments[i].vertex);
+      EXPECT_EQ(y.twistingMoments[i].moment, x.twistingMoments[i].moment);
+    }
+    EXPECT_EQ(y.target, x.target);
+  }
+  EXPECT_EQ(b.design.present, a.design.present);
+  EXPECT_EQ(b.design.radii, a.design.radii);
+  EXPECT_EQ(b.design.restShape, a.design.restShape);
+  EXPECT_EQ(b.design.hasRadiusBounds, a.design.hasRadiusBounds);
+  EXPECT_EQ(b.design.radiusMin, a.design.radiusMin);
+  EXPECT_EQ(b.design.radiusMax, a.design.radiusMax);
+  EXPECT_EQ(b.design.controlPointsPerRod, a.design.controlPointsPerRod);
+
+  // A second trip is a fixed point of the writer.
+  EXPECT_EQ(sceneToJson(b), text);
+}
+
+TEST(SceneReader, WriteSceneFileThenReadSceneFile) {
+  const Scene a = parseScene(baseScene().dump(), kFile);
+  char dirTemplate[] = "/tmp/rodmesh_scene_test_XXXXXX";
+  ASSERT_NE(mkdtemp(dirTemplate), nullptr);
+  const std::string path = std::string(dirTemplate) + "/s.json";
+  writeSceneFile(a, path);
+  const Scene b = readSceneFile(path);
+  EXPECT_EQ(b.sourcePath, path);
+  EXPECT_EQ(b.vertices, a.vertices);
+  EXPECT_EQ(b.radii, a.radii);
+  std::remove(path.c_str());
+  rmdir(dirTemplate);
+}
+
+TEST(SceneReader, UnknownKeysWarnButDoNotFail) {
+  json j = baseScene();
+  j["colour"] = "red";
+  j["material"]["hardness"] = 85;
+  j["poses"][0]["label"] = "x";
+  Scene s;
+  ASSERT_NO_THROW(s = parseScene(j.dump(), kFile));
+  EXPECT_EQ(s.vertices.size(), 4u);
+  const auto& w = lastSceneWarnings();
+  ASSERT_EQ(w.size(), 3u);
+  auto anyContains = [&](const std::string& sub) {
+    for (const std::string& m : w)
+      if (m.rfind(std::string(kFile) + ": ", 0) == 0 && contains(m, sub)) return true;
+    return false;
+  };
+  EXPECT_TRUE(anyContains("colour"));
+  EXPECT_TRUE(anyContains("material.hardness"));
+  EXPECT_TRUE(anyContains("poses[0].label"));
+
+  // Warnings do not leak into the next parse.
+  parseScene(baseScene().dump(), kFile);
+  EXPECT_TRUE(lastSceneWarnings().empty());
+}
+
+}  // namespace
+}  // namespace rodmesh
