@@ -38,8 +38,11 @@ using Mat32 = Eigen::Matrix<double, 3, 2>;
 // How a local variable of a kernel depends on the stencil's unknowns (x) or on
 // the design parameters (p): sum of at most two coef * variable.
 struct LinMap {
-  int idx[2] = {-1, -1};
-  double coef[2] = {0.0, 0.0};
+  int idx[2];
+  double coef[2];
+  void set(int i0, double c0, int i1 = -1, double c1 = 0.0) {
+    idx[0] = i0; coef[0] = c0; idx[1] = i1; coef[1] = c1;
+  }
 };
 
 constexpr int kMaxLocal = 24;  // local variables per stencil (x and p together)
@@ -64,6 +67,8 @@ double partOf(const ad::Dual& x, bool derivative) { return derivative ? x.d : x.
 // One stencil, described by its local variables: values, maps to the stencil's
 // unknowns (x part) and to design parameters (p part).
 struct LocalStencil {
+  // Filled incrementally by the add* builders; only the first nx / np / ns
+  // entries are meaningful.
   int nx = 0, np = 0;
   double xv[kMaxLocal];
   double pv[kMaxLocal];
@@ -76,19 +81,24 @@ struct LocalStencil {
 // Evaluates kernel `k` on the local stencil with N seeded variables: the x
 // variables only (N == nx, p constants) or x and p (N == nx + np). With a
 // direction (T = Dual) the x variables carry it in their dual parts.
-template <int N, class T, class Kern>
+template <int N, class T, bool Joint, class Kern>
 ad::Hess<N, T> evalLocal(const Kern& k, const LocalStencil& ls, const double* xdir) {
   using H = ad::Hess<N, T>;
-  H x[kMaxLocal], p[kMaxLocal];
-  for (int i = 0; i < ls.nx; ++i) {
+  H x[N];
+  const int nx = ls.nx;
+  for (int i = 0; i < nx; ++i) {
     T val;
     if constexpr (std::is_same_v<T, ad::Dual>) val = ad::Dual(ls.xv[i], xdir ? xdir[i] : 0.0);
     else val = ls.xv[i];
     x[i] = H::variable(val, i);
   }
-  const bool seedP = (N == ls.nx + ls.np) && ls.np > 0 && N > ls.nx;
-  for (int i = 0; i < ls.np; ++i) p[i] = seedP ? H::variable(T(ls.pv[i]), ls.nx + i) : H(T(ls.pv[i]), 0);
-  return k(x, p);
+  if constexpr (!Joint) {
+    // Simulation: design data are constants, evaluated in double.
+    return k(x, ls.pv);
+  } else {
+    for (int i = 0; i < ls.np; ++i) x[nx + i] = H::variable(T(ls.pv[i]), nx + i);
+    return k(x, x + nx);
+  }
 }
 
 // Adds a sim-mode result (x variables only) into the global gradient and the
@@ -405,11 +415,7 @@ Vec3 addEdgeVars(LocalStencil& ls, const BuildCtx& c, int a, int b, int pa, int 
     ls.xv[ls.nx] = w[0];
     ls.xv[ls.nx + 1] = w[1];
   }
-  for (int i = 0; i < c.D; ++i) {
-    LinMap& m = ls.xmap[ls.nx + i];
-    m.idx[0] = pb + i; m.coef[0] = 1.0;
-    m.idx[1] = pa + i; m.coef[1] = -1.0;
-  }
+  for (int i = 0; i < c.D; ++i) ls.xmap[ls.nx + i].set(pb + i, 1.0, pa + i, -1.0);
   ls.nx += c.D;
   return off;
 }
@@ -426,18 +432,14 @@ Vec3 addPointVars(LocalStencil& ls, const BuildCtx& c, int v, int pv) {
     ls.xv[ls.nx] = w[0];
     ls.xv[ls.nx + 1] = w[1];
   }
-  for (int i = 0; i < c.D; ++i) {
-    LinMap& m = ls.xmap[ls.nx + i];
-    m.idx[0] = pv + i; m.coef[0] = 1.0;
-  }
+  for (int i = 0; i < c.D; ++i) ls.xmap[ls.nx + i].set(pv + i, 1.0);
   ls.nx += c.D;
   return off;
 }
 
 void addThetaVar(LocalStencil& ls, const BuildCtx& c, int e, int pos) {
   ls.xv[ls.nx] = (*c.theta)[e];
-  ls.xmap[ls.nx].idx[0] = pos;
-  ls.xmap[ls.nx].coef[0] = 1.0;
+  ls.xmap[ls.nx].set(pos, 1.0);
   ls.nx++;
 }
 
@@ -446,32 +448,29 @@ void addRestEdge(LocalStencil& ls, const BuildCtx& c, int a, int b) {
   const Vec3 E = c.d->restPositions[b] - c.d->restPositions[a];
   for (int i = 0; i < 3; ++i) {
     ls.pv[ls.np] = E[i];
-    LinMap& m = ls.pmap[ls.np];
-    m.idx[0] = Design::restIndex(b, i); m.coef[0] = 1.0;
-    m.idx[1] = Design::restIndex(a, i); m.coef[1] = -1.0;
+    ls.pmap[ls.np].set(Design::restIndex(b, i), 1.0, Design::restIndex(a, i), -1.0);
     ls.np++;
   }
 }
 void addRadii(LocalStencil& ls, const BuildCtx& c, int v) {
   for (int i = 0; i < 2; ++i) {
     ls.pv[ls.np] = c.d->radii[v][i];
-    ls.pmap[ls.np].idx[0] = c.d->radiusIndex(v, i);
-    ls.pmap[ls.np].coef[0] = 1.0;
+    ls.pmap[ls.np].set(c.d->radiusIndex(v, i), 1.0);
     ls.np++;
   }
 }
 
-// Kernels as callables on (x locals, p locals).
+// Kernels as callables on (x locals of scalar S, p locals of scalar P).
 template <int D, bool TW>
 struct StretchK {
   energies::StretchConst k;
   Vec3 off;
   const Mat32* B;
-  template <class S>
-  S operator()(const S* x, const S* p) const {
+  template <class S, class P>
+  S operator()(const S* x, const P* p) const {
     const V3<S> e = embed<D>(x, off, *B);
-    const V3<S> E(p[0], p[1], p[2]);
-    return energies::stretchEnergy(e, E, p[3], p[4], p[5], p[6], k);
+    const auto rest = energies::stretchRest(V3<P>(p[0], p[1], p[2]), p[3], p[4], p[5], p[6], k);
+    return energies::stretchEnergy(e, rest);
   }
 };
 template <int D, bool TW>
@@ -479,14 +478,14 @@ struct BendK {
   energies::BendTwistConst k;
   Vec3 off0, off1;
   const Mat32* B;
-  template <class S>
-  S operator()(const S* x, const S* p) const {
+  template <class S, class P>
+  S operator()(const S* x, const P* p) const {
     const V3<S> e0 = embed<D>(x, off0, *B);
     const V3<S> e1 = embed<D>(x + D, off1, *B);
     const S th0 = TW ? x[2 * D] : S(0.0);
     const S th1 = TW ? x[2 * D + 1] : S(0.0);
-    const V3<S> E0(p[0], p[1], p[2]), E1(p[3], p[4], p[5]);
-    return energies::bendTwistEnergy(e0, e1, th0, th1, E0, E1, p[6], p[7], k);
+    const auto rest = energies::bendTwistRest(V3<P>(p[0], p[1], p[2]), V3<P>(p[3], p[4], p[5]), p[6], p[7], k);
+    return energies::bendTwistEnergy(e0, e1, th0, th1, rest, k);
   }
 };
 template <int D, bool TW>
@@ -494,12 +493,12 @@ struct ClampK {
   energies::ClampConst k;
   Vec3 off;
   const Mat32* B;
-  template <class S>
-  S operator()(const S* x, const S* p) const {
+  template <class S, class P>
+  S operator()(const S* x, const P* p) const {
     const V3<S> e = embed<D>(x, off, *B);
     const S th = TW ? x[D] : S(0.0);
-    const V3<S> E(p[0], p[1], p[2]);
-    return energies::clampEnergy(e, th, E, p[3], p[4], k);
+    const auto rest = energies::clampRest(V3<P>(p[0], p[1], p[2]), p[3], p[4], k);
+    return energies::clampEnergy(e, th, rest, k);
   }
 };
 template <int D, bool TW>
@@ -507,8 +506,9 @@ struct GravityK {
   energies::GravityConst k;
   Vec3 offA, offB;
   const Mat32* B;
-  template <class S>
-  S operator()(const S* x, const S* p) const {
+  template <class S, class P>
+  S operator()(const S* x, const P* p) const {
+    static_assert(std::is_same_v<S, P>, "gravity is evaluated with AD in joint mode only");
     const V3<S> xa = embed<D>(x, offA, *B);
     const V3<S> xb = embed<D>(x + D, offB, *B);
     const V3<S> E(p[0], p[1], p[2]);
@@ -615,7 +615,7 @@ void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) con
       out.energy += kern(xs, ps);
       return;
     }
-    const ad::Hess<NX, double> r = evalLocal<NX, double>(kern, ls, nullptr);
+    const ad::Hess<NX, double> r = evalLocal<NX, double, false>(kern, ls, nullptr);
     out.energy += r.v;
     scatterSim<NX>(r, ls, stencilSlots_.data() + stencils_[sidx].offset, out.gradient, hv);
   };
@@ -711,7 +711,7 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
     constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
     double dir[kMaxLocal];
     if (derivative) localDir(ls, dir);
-    const ad::Hess<N, T> r = evalLocal<N, T>(kern, ls, derivative ? dir : nullptr);
+    const ad::Hess<N, T> r = evalLocal<N, T, true>(kern, ls, derivative ? dir : nullptr);
     scatterJoint<N, T>(r, ls, derivative, out);
   };
   RODMESH_FOR_EACH_STENCIL(D, TW, ctx, visit);

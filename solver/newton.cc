@@ -3,6 +3,9 @@
 #include <Eigen/SparseCholesky>
 
 #include <chrono>
+#include <limits>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <sstream>
 
@@ -53,9 +56,11 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
 
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
   bool analysed = false;
-  double shift = 0.0;  // last shift that worked, carried over (reduced) between iterations
   Eigen::SparseMatrix<double> H;
   std::vector<int> diagSlot;
+  int escapes = 0;
+  const double eps = std::numeric_limits<double>::epsilon();
+  const bool debug = std::getenv("RODMESH_DEBUG_NEWTON") != nullptr;
 
   auto ta = Clock::now();
   system.evaluate(u, design, E, g, true);
@@ -65,25 +70,27 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     rep.timeSeconds = since(t0);
     return rep;
   }
+
+  // Solves (L |D|' L^T) x = b with the current factor, where |D|' replaces
+  // every pivot by max(|D_i|, delta max|D|): the modified-Newton system of an
+  // indefinite Hessian (positive definite, same scaling as H).
+  auto solveModified = [&](const Eigen::VectorXd& b, const Eigen::VectorXd& Dmod) {
+    Eigen::VectorXd y = ldlt.permutationP() * b;
+    ldlt.matrixL().solveInPlace(y);
+    y.array() /= Dmod.array();
+    ldlt.matrixU().solveInPlace(y);
+    return Eigen::VectorXd(ldlt.permutationPinv() * y);
+  };
+
   for (int it = 0;; ++it) {
     const double res = system.forceResidual(g).norm();
     rep.residualNorm = res;
     rep.relativeResidual = scale > 0 ? res / scale : res;
     rep.residualHistory.push_back(rep.relativeResidual);
     rep.energy = E;
-    if (res <= tolerance * scale) {
-      rep.converged = true;
-      rep.message = "force residual below tolerance";
-      break;
-    }
-    if (it >= opt.maxIterations) {
-      rep.message = "iteration limit reached";
-      break;
-    }
-    rep.iterations++;
 
-    // Factorize H + shift * diag(|H_ii|), raising the shift until the factor
-    // is positive definite, so that d is a descent direction.
+    // Factorize the Hessian at the current point (also needed to judge the
+    // stability of a converged state).
     const Eigen::SparseMatrix<double>& H0 = system.hessian();
     if (!analysed) {
       H = H0;
@@ -91,36 +98,127 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
       for (int c = 0; c < n; ++c)
         for (int k = H.outerIndexPtr()[c]; k < H.outerIndexPtr()[c + 1]; ++k)
           if (H.innerIndexPtr()[k] == c) diagSlot[c] = k;
+      ldlt.analyzePattern(H);
+      analysed = true;
     }
-    std::copy(H0.valuePtr(), H0.valuePtr() + H0.nonZeros(), H.valuePtr());
-    Eigen::VectorXd diag(n);
-    double meanDiag = 0.0;
-    for (int c = 0; c < n; ++c) { diag[c] = std::abs(H.valuePtr()[diagSlot[c]]); meanDiag += diag[c]; }
-    meanDiag = meanDiag > 0 ? meanDiag / n : 1.0;
-    for (int c = 0; c < n; ++c) diag[c] = std::max(diag[c], 1e-8 * meanDiag);
-
-    double tau = shift > 0 ? std::max(opt.minShift, shift / 4) : 0.0;
-    bool factored = false;
     ta = Clock::now();
-    while (true) {
-      for (int c = 0; c < n; ++c) H.valuePtr()[diagSlot[c]] = H0.valuePtr()[diagSlot[c]] + tau * diag[c];
-      if (!analysed) { ldlt.analyzePattern(H); analysed = true; }
-      ldlt.factorize(H);
-      rep.factorizations++;
-      bool ok = ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0).all() && ldlt.vectorD().allFinite();
-      if (ok) {
-        d = ldlt.solve(-g);
-        ok = finite(d) && d.dot(g) < 0;
+    std::copy(H0.valuePtr(), H0.valuePtr() + H0.nonZeros(), H.valuePtr());
+    ldlt.factorize(H);
+    rep.factorizations++;
+    const Eigen::VectorXd D = ldlt.vectorD();
+    const bool factorOk = ldlt.info() == Eigen::Success && D.allFinite();
+    const double Dmax = factorOk ? D.cwiseAbs().maxCoeff() : 0.0;
+    const double delta = 1e-10 * Dmax;
+    // Negative pivots mean negative curvature; pivots within delta of zero
+    // are (near) zero-stiffness modes, harmless at convergence but floored in
+    // the step.
+    int negative = 0, singular = 0, worst = -1;
+    if (factorOk)
+      for (int i = 0; i < n; ++i) {
+        if (D[i] < -delta) {
+          ++negative;
+          if (worst < 0 || D[i] < D[worst]) worst = i;
+        } else if (D[i] <= delta) {
+          ++singular;
+        }
       }
-      if (ok) { factored = true; break; }
-      tau = tau == 0 ? opt.minShift : tau * 10;
-      if (tau > opt.maxShift) break;
-    }
     rep.factorSeconds += since(ta);
-    if (tau > 0) rep.hessianModifications++;
-    shift = tau;
-    if (!factored) {
-      rep.message = "could not find a descent direction (Hessian shift exceeded its limit)";
+    rep.negativePivots = negative;
+
+    const bool small = res <= tolerance * scale;
+    if (small && negative == 0) {
+      rep.converged = true;
+      rep.message = "force residual below tolerance";
+      break;
+    }
+    if (it >= opt.maxIterations) {
+      rep.message = small ? "converged to an unstable equilibrium (negative curvature persists)" : "iteration limit reached";
+      rep.converged = small;
+      break;
+    }
+
+    // At an unstable equilibrium (a saddle, e.g. a perfectly straight column
+    // above its buckling load), step along a direction of negative curvature:
+    // z = P^T L^-T e_k has z^T H z = D_k < 0.
+    if (factorOk && negative > 0 && (small || res <= 1e-6 * scale) && escapes < opt.maxEscapes) {
+      Eigen::VectorXd y = Eigen::VectorXd::Zero(n);
+      y[worst] = 1.0;
+      ldlt.matrixU().solveInPlace(y);
+      Eigen::VectorXd z = ldlt.permutationPinv() * y;
+      if (z.dot(g) > 0) z = -z;
+      z *= 0.1 * system.momentArm() / std::max(z.head(system.numVertexDofs()).lpNorm<Eigen::Infinity>(), 1e-300);
+      if (!z.allFinite() || system.numVertexDofs() == 0) z.setZero();
+      double best = E;
+      Eigen::VectorXd uBest;
+      for (double a = 1.0; a > 1e-6; a *= 0.5) {
+        uTrial = u + a * z;
+        const double Et = system.energy(uTrial, design);
+        if (std::isfinite(Et) && Et < best) { best = Et; uBest = uTrial; break; }
+      }
+      ++escapes;
+      rep.escapes++;
+      if (uBest.size() > 0) {
+        if (debug) std::fprintf(stderr, "it %3d  escape along negative curvature, E %.6e -> %.6e\n", it, E, best);
+        u = uBest;
+        ta = Clock::now();
+        system.evaluate(u, design, E, g, true);
+        rep.assemblySeconds += since(ta);
+        rep.iterations++;
+        continue;
+      }
+    }
+    if (small) {
+      rep.converged = true;
+      rep.unstable = true;
+      rep.message = "force residual below tolerance, but the equilibrium is unstable (negative curvature)";
+      break;
+    }
+    rep.iterations++;
+
+    // Direction: Newton, or modified Newton with |D| when indefinite; a
+    // diagonal shift as the last resort when the factorization itself fails.
+    bool haveDir = false;
+    double tau = 0.0;
+    if (factorOk) {
+      if (negative == 0 && singular == 0) {
+        d = ldlt.solve(-g);
+      } else {
+        Eigen::VectorXd Dmod = D.cwiseAbs().cwiseMax(std::max(delta, 1e-300));
+        d = solveModified(-g, Dmod);
+        rep.hessianModifications++;
+      }
+      haveDir = finite(d) && d.dot(g) < 0;
+    }
+    if (!haveDir) {
+      Eigen::VectorXd diag(n);
+      double meanDiag = 0.0;
+      for (int c = 0; c < n; ++c) { diag[c] = std::abs(H0.valuePtr()[diagSlot[c]]); meanDiag += diag[c]; }
+      meanDiag = meanDiag > 0 ? meanDiag / n : 1.0;
+      for (int c = 0; c < n; ++c) diag[c] = std::max(diag[c], 1e-8 * meanDiag);
+      ta = Clock::now();
+      for (tau = opt.minShift; tau <= opt.maxShift; tau *= 10) {
+        for (int c = 0; c < n; ++c) H.valuePtr()[diagSlot[c]] = H0.valuePtr()[diagSlot[c]] + tau * diag[c];
+        ldlt.factorize(H);
+        rep.factorizations++;
+        if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0).all()) continue;
+        d = ldlt.solve(-g);
+        if (finite(d) && d.dot(g) < 0) { haveDir = true; break; }
+      }
+      rep.factorSeconds += since(ta);
+      rep.hessianModifications++;
+      if (!haveDir) {
+        rep.message = "could not find a descent direction (Hessian shift exceeded its limit)";
+        break;
+      }
+    }
+    // A pure Newton correction below the round-off of the unknowns cannot
+    // improve the solution: the residual is at the round-off level of the
+    // internal forces (stiff stretching against light loads).
+    if (negative == 0 && tau == 0.0 &&
+        d.lpNorm<Eigen::Infinity>() <= 1e3 * eps * u.lpNorm<Eigen::Infinity>()) {
+      rep.converged = true;
+      rep.roundoff = true;
+      rep.message = "Newton correction at the round-off level of the unknowns";
       break;
     }
 
@@ -134,28 +232,35 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     for (int b = 0; b <= opt.maxBacktracks; ++b) {
       uTrial = u + alpha * d;
       ta = Clock::now();
-      system.evaluate(uTrial, design, Etrial, gTrial, true);
+      Etrial = system.energy(uTrial, design);
       rep.assemblySeconds += since(ta);
-      if (std::isfinite(Etrial) && finite(gTrial)) {
-        const bool armijo = Etrial <= E + opt.armijo * alpha * slope;
-        const bool roundoff = std::abs(Etrial - E) <= 1e-12 * std::max(std::abs(E), 1e-300) &&
-                              system.forceResidual(gTrial).norm() < res;
-        if (armijo || roundoff) { accepted = true; break; }
+      if (std::isfinite(Etrial)) {
+        if (Etrial <= E + opt.armijo * alpha * slope) {
+          accepted = true;
+        } else if (std::abs(Etrial - E) <= 1e-12 * std::max(std::abs(E), 1e-300)) {
+          // Energy differences at round-off: judge the step by the residual.
+          double e;
+          system.evaluate(uTrial, design, e, gTrial, false);
+          accepted = finite(gTrial) && system.forceResidual(gTrial).norm() < res;
+        }
+        if (accepted) break;
       }
       alpha *= 0.5;
       rep.backtracks++;
     }
-    if (!accepted) {
-      // Re-evaluate the Hessian at the current point for the next attempt
-      // with a larger shift.
-      system.evaluate(u, design, E, g, true);
-      shift = std::max(shift * 100, 1e-6);
-      if (shift > opt.maxShift) {
-        rep.message = "line search failed";
-        break;
-      }
-      continue;
+    if (accepted) {
+      ta = Clock::now();
+      system.evaluate(uTrial, design, Etrial, gTrial, true);
+      rep.assemblySeconds += since(ta);
+      accepted = std::isfinite(Etrial) && finite(gTrial);
     }
+    if (!accepted) {
+      rep.message = "line search failed: no step along the descent direction lowers the energy";
+      break;
+    }
+    if (debug)
+      std::fprintf(stderr, "it %3d  E %.12e  res %.3e  neg %d  tau %.1e  alpha %.3e  |d| %.3e\n", it, E,
+                   rep.relativeResidual, negative, tau, alpha, d.norm());
     u = uTrial;
     E = Etrial;
     g = gTrial;
@@ -177,6 +282,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
     total.factorizations += r.factorizations;
     total.hessianModifications += r.hessianModifications;
     total.backtracks += r.backtracks;
+    total.escapes += r.escapes;
     total.assemblySeconds += r.assemblySeconds;
     total.factorSeconds += r.factorSeconds;
     total.residualHistory.insert(total.residualHistory.end(), r.residualHistory.begin(), r.residualHistory.end());
@@ -207,7 +313,8 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
     Eigen::VectorXd uCur = system.restDofs(design);
     double lam = 0.0, step = 0.5;
     const double minStep = std::ldexp(1.0, -opt.maxLoadHalvings);
-    const double stepTol = std::max(opt.tolerance, 1e-6);
+    // Intermediate load steps need not be tight, but never sloppy.
+    const double stepTol = std::min(std::max(opt.tolerance, 1e-6), 1e-4);
     bool failed = false;
     while (lam < 1.0) {
       const double next = std::min(1.0, lam + step);
@@ -235,6 +342,9 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
     }
   }
   total.converged = r.converged;
+  total.unstable = r.unstable;
+  total.roundoff = r.roundoff;
+  total.negativePivots = r.negativePivots;
   total.message = r.message;
   system.setLoadFactor(1.0);
   Eigen::VectorXd g;

@@ -1,7 +1,12 @@
 // Static equilibrium of one pose: Newton's method on the total potential
-// energy with a sparse LDL^T factorization, an Armijo backtracking line
-// search, and a diagonal shift that keeps every step a descent direction when
-// the Hessian is indefinite (buckling, snap-through).
+// energy with a sparse LDL^T factorization and an Armijo backtracking line
+// search. Where the Hessian is indefinite (buckling, snap-through) the step
+// uses the modified factor L |D| L^T (a descent direction with the Hessian's
+// own scaling); a diagonal shift is the last resort when the factorization
+// fails. A converged state with negative curvature (a saddle, such as a
+// perfectly straight column above its buckling load) is left along a
+// direction of negative curvature, so that the solver ends at a stable
+// equilibrium or says it could not.
 //
 // Convergence is judged on the force residual (PoseSystem::forceResidual, in
 // newtons) relative to the pose's load scale: the residual of the undeformed
@@ -25,6 +30,7 @@ struct NewtonOptions {
   double minShift = 1e-10;        // first diagonal shift tried (relative to diag(H))
   double maxShift = 1e12;         // give up beyond this shift
   int maxLoadHalvings = 10;       // continuation: smallest load step is 2^-maxLoadHalvings
+  int maxEscapes = 20;            // steps along negative curvature away from unstable equilibria
   std::string isValid() const;    // empty if valid, else what is wrong
 };
 
@@ -39,6 +45,10 @@ struct NewtonReport {
   double loadScale = 0.0;           // N
   double residualNorm = 0.0;        // N, final
   double relativeResidual = 0.0;    // residualNorm / loadScale
+  bool roundoff = false;            // converged because the Newton correction reached round-off
+  bool unstable = false;            // converged to an equilibrium with negative curvature
+  int negativePivots = 0;           // of the last factorization (0: stable)
+  int escapes = 0;                  // steps taken along negative curvature
   double energy = 0.0;              // J, final
   double timeSeconds = 0.0;
   double assemblySeconds = 0.0, factorSeconds = 0.0;

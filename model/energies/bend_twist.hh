@@ -31,32 +31,53 @@ struct BendTwistConst {
   bool bend = true, twist = true;
 };
 
-template <class S>
-S bendTwistEnergy(const V3<S>& e0, const V3<S>& e1, const S& th0, const S& th1, const V3<S>& E0, const V3<S>& E1,
-                  const S& rt, const S& rn, const BendTwistConst& c) {
-  const S l = S(0.5) * (norm(E0) + norm(E1));
-  const FrameT<S> F0 = restFrameOf(E0, c.n0), F1 = restFrameOf(E1, c.n1);
+// Everything that depends on the design only.
+template <class P>
+struct BendTwistRest {
+  FrameT<P> F0, F1;              // rest frames of e0, e1
+  P wa1, wa2, wb1, wb2;          // rest curvature: Kb.D2_0, Kb.D1_0, Kb.D2_1, Kb.D1_1
+  P kIn, kOut, kTwist;           // B_in / (4 l), B_out / (4 l), beta / (2 l)
+  P psiRest;                     // rest reference twist
+};
+
+template <class P>
+BendTwistRest<P> bendTwistRest(const V3<P>& E0, const V3<P>& E1, const P& rt, const P& rn, const BendTwistConst& c) {
+  BendTwistRest<P> r;
+  const P l = P(0.5) * (norm(E0) + norm(E1));
+  r.F0 = restFrameOf(E0, c.n0);
+  r.F1 = restFrameOf(E1, c.n1);
+  const V3<P> Kb = curvatureBinormal(r.F0.t, r.F1.t);
+  r.wa1 = dot(Kb, r.F0.d2);
+  r.wa2 = dot(Kb, r.F0.d1);
+  r.wb1 = dot(Kb, r.F1.d2);
+  r.wb2 = dot(Kb, r.F1.d1);
+  r.kIn = stiffness::bendingIn(c.youngModulus, rt, rn) / (P(4.0) * l);
+  r.kOut = stiffness::bendingOut(c.youngModulus, rt, rn) / (P(4.0) * l);
+  r.kTwist = stiffness::twisting(c.shearModulus, rt, rn) / (P(2.0) * l);
+  r.psiRest = signedAngle(parallelTransport(r.F0.t, r.F1.t, r.F0.d1), r.F1.d1, r.F1.t);
+  return r;
+}
+
+template <class S, class P>
+S bendTwistEnergy(const V3<S>& e0, const V3<S>& e1, const S& th0, const S& th1, const BendTwistRest<P>& r,
+                  const BendTwistConst& c) {
   const V3<S> t0 = normalized(e0), t1 = normalized(e1);
-  const V3<S> u0 = parallelTransport(F0.t, t0, F0.d1);
-  const V3<S> u1 = parallelTransport(F1.t, t1, F1.d1);
+  const V3<S> u0 = transportFromRest(r.F0.t, t0, r.F0.d1);
+  const V3<S> u1 = transportFromRest(r.F1.t, t1, r.F1.d1);
   S energy(0.0);
   if (c.bend) {
     V3<S> m1a, m2a, m1b, m2b;
     materialDirectors(t0, u0, th0, m1a, m2a);
     materialDirectors(t1, u1, th1, m1b, m2b);
     const V3<S> kb = curvatureBinormal(t0, t1);
-    const V3<S> Kb = curvatureBinormal(F0.t, F1.t);
-    const S wa1 = dot(kb, m2a) - dot(Kb, F0.d2), wa2 = dot(Kb, F0.d1) - dot(kb, m1a);
-    const S wb1 = dot(kb, m2b) - dot(Kb, F1.d2), wb2 = dot(Kb, F1.d1) - dot(kb, m1b);
-    const S Bin = stiffness::bendingIn(c.youngModulus, rt, rn);
-    const S Bout = stiffness::bendingOut(c.youngModulus, rt, rn);
-    energy = energy + (S(0.25) / l) * (Bin * (wa1 * wa1 + wb1 * wb1) + Bout * (wa2 * wa2 + wb2 * wb2));
+    const S wa1 = dot(kb, m2a) - r.wa1, wa2 = dot(kb, m1a) - r.wa2;
+    const S wb1 = dot(kb, m2b) - r.wb1, wb2 = dot(kb, m1b) - r.wb2;
+    energy = (wa1 * wa1 + wb1 * wb1) * r.kIn + (wa2 * wa2 + wb2 * wb2) * r.kOut;
   }
   if (c.twist) {
     const S psi = signedAngle(parallelTransport(t0, t1, u0), u1, t1);
-    const S psiRest = signedAngle(parallelTransport(F0.t, F1.t, F0.d1), F1.d1, F1.t);
-    const S tau = th1 - th0 + wrapAngle(psi - psiRest);
-    energy = energy + (S(0.5) / l) * stiffness::twisting(c.shearModulus, rt, rn) * tau * tau;
+    const S tau = th1 - th0 + wrapAngle(psi - r.psiRest);
+    energy = energy + tau * tau * r.kTwist;
   }
   return energy;
 }

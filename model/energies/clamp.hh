@@ -25,24 +25,37 @@ struct ClampConst {
   bool bend = true, twist = true;
 };
 
-template <class S>
-S clampEnergy(const V3<S>& e, const S& th, const V3<S>& E, const S& rt, const S& rn, const ClampConst& c) {
-  const S l = S(0.5) * norm(E);
-  const FrameT<S> F = restFrameOf(E, c.n);
+template <class P>
+struct ClampRest {
+  FrameT<P> F;               // held frame (T, D1, D2)
+  P kIn, kOut, kTwist;       // B_in / (4 l), B_out / (4 l), beta / (2 l), l = |E| / 2
+};
+
+template <class P>
+ClampRest<P> clampRest(const V3<P>& E, const P& rt, const P& rn, const ClampConst& c) {
+  ClampRest<P> r;
+  const P l = P(0.5) * norm(E);
+  r.F = restFrameOf(E, c.n);
+  r.kIn = stiffness::bendingIn(c.youngModulus, rt, rn) / (P(4.0) * l);
+  r.kOut = stiffness::bendingOut(c.youngModulus, rt, rn) / (P(4.0) * l);
+  r.kTwist = stiffness::twisting(c.shearModulus, rt, rn) / (P(2.0) * l);
+  return r;
+}
+
+template <class S, class P>
+S clampEnergy(const V3<S>& e, const S& th, const ClampRest<P>& r, const ClampConst& c) {
   const V3<S> t = normalized(e);
   S energy(0.0);
   if (c.bend) {
-    const V3<S> u = parallelTransport(F.t, t, F.d1);
+    const V3<S> u = transportFromRest(r.F.t, t, r.F.d1);
     V3<S> m1, m2;
     materialDirectors(t, u, th, m1, m2);
-    const V3<S> kb = curvatureBinormal(F.t, t);
-    const S wf1 = dot(kb, F.d2), wf2 = dot(kb, F.d1);
+    const V3<S> kb = (S(2.0) / (S(1.0) + dotm(r.F.t, t))) * crossm(r.F.t, t);
+    const S wf1 = dotm(r.F.d2, kb), wf2 = dotm(r.F.d1, kb);
     const S we1 = dot(kb, m2), we2 = dot(kb, m1);
-    const S Bin = stiffness::bendingIn(c.youngModulus, rt, rn);
-    const S Bout = stiffness::bendingOut(c.youngModulus, rt, rn);
-    energy = energy + (S(0.25) / l) * (Bin * (wf1 * wf1 + we1 * we1) + Bout * (wf2 * wf2 + we2 * we2));
+    energy = (wf1 * wf1 + we1 * we1) * r.kIn + (wf2 * wf2 + we2 * we2) * r.kOut;
   }
-  if (c.twist) energy = energy + (S(0.5) / l) * stiffness::twisting(c.shearModulus, rt, rn) * th * th;
+  if (c.twist) energy = energy + th * th * r.kTwist;
   return energy;
 }
 

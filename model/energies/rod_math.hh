@@ -39,6 +39,14 @@ template <class S> inline V3<S> normalized(const V3<S>& a) { return (S(1.0) / no
 // Mixed-type helpers: a constant (double) vector with a generic one.
 template <class S> inline S dot(const Eigen::Vector3d& a, const V3<S>& b) { return a[0] * b.x + a[1] * b.y + a[2] * b.z; }
 
+// Mixed-scalar helpers: a (rest) vector of scalar P with a (current) vector of
+// scalar S; the result has scalar S. P is double in simulation (rest data are
+// constants) and equal to S when design derivatives are wanted.
+template <class P, class S> inline S dotm(const V3<P>& a, const V3<S>& b) { return b.x * a.x + b.y * a.y + b.z * a.z; }
+template <class P, class S> inline V3<S> crossm(const V3<P>& a, const V3<S>& b) {
+  return {b.z * a.y - b.y * a.z, b.x * a.z - b.z * a.x, b.y * a.x - b.x * a.y};
+}
+
 // Parallel transport of v by the rotation about a x b taking unit a to unit b
 // (Bergou 2008 §4.2): P v = (a.b) v + (a x b) x v + ((a x b).v / (1 + a.b)) (a x b).
 // Smooth except at a = -b.
@@ -47,6 +55,18 @@ inline V3<S> parallelTransport(const V3<S>& a, const V3<S>& b, const V3<S>& v) {
   const V3<S> c = cross(a, b);
   const S d = dot(a, b);
   return d * v + cross(c, v) + (dot(c, v) / (S(1.0) + d)) * c;
+}
+
+// Transport of the rest vector v from the rest tangent a to the current
+// tangent b (same formula as parallelTransport, mixed scalars).
+template <class P, class S>
+inline V3<S> transportFromRest(const V3<P>& a, const V3<S>& b, const V3<P>& v) {
+  const V3<S> c = crossm(a, b);
+  const S d = dotm(a, b);
+  const S k = dotm(v, c) / (S(1.0) + d);
+  // d v + c x v + k c
+  return {d * v.x + (c.y * v.z - c.z * v.y) + k * c.x, d * v.y + (c.z * v.x - c.x * v.z) + k * c.y,
+          d * v.z + (c.x * v.y - c.y * v.x) + k * c.z};
 }
 
 // Signed angle from p to q about the unit axis t (p, q perpendicular to t).

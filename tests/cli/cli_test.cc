@@ -256,7 +256,7 @@ TEST_F(CliTest, ExplicitTwistOnAPlanarSceneWritesTwistAndMatchesThePlanarModel) 
 // is indefinite along it, and the diagonal shift proportional to |H_ii| needed
 // to make it positive definite all but cancels the soft bending directions, so
 // Newton stalls at a few percent of the load. Enable once the solver copes.
-TEST_F(CliTest, DISABLED_FullModelConvergesBeyondLateralTorsionalBuckling) {
+TEST_F(CliTest, FullModelConvergesBeyondLateralTorsionalBuckling) {
   const std::string base = copySource("cantilever.json");
   writeFile(path("full.json"), withEffectsAndLoad(base, "[\"stretch\", \"bend\", \"twist\"]", "-0.5"));
   const RunResult r = run("simulate full.json -o full.h5");
@@ -264,6 +264,14 @@ TEST_F(CliTest, DISABLED_FullModelConvergesBeyondLateralTorsionalBuckling) {
   if (r.status == 0 || r.status == 1) {
     const Archive b = readArchive(path("full.h5"));
     EXPECT_EQ(b.status, "converged");
+    // The in-plane state is a saddle of the 3D energy at this load: the
+    // solver must leave it for the laterally buckled, twisted equilibrium.
+    const ArchivePose* large = nullptr;
+    for (const ArchivePose& p : b.poses)
+      if (p.name == "large") large = &p;
+    ASSERT_NE(large, nullptr);
+    EXPECT_GT(large->positions.col(2).cwiseAbs().maxCoeff(), 1e-3) << "no out-of-plane (lateral) deflection";
+    EXPECT_GT(large->twist.cwiseAbs().maxCoeff(), 0.1) << "no twist: still at the in-plane saddle";
   }
 }
 
