@@ -56,6 +56,8 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       ->capture_default_str();
   app->add_option("--refinement", o->mesh.cvt.refinement, "refined-mesh edges per cell radius used by the CVT")
       ->capture_default_str();
+  app->add_option("--restarts", o->mesh.cvt.restarts, "Lloyd runs from different starts (lowest energy kept)")
+      ->capture_default_str();
   app->add_option("--tolerance", o->mesh.cvt.tolerance, "Lloyd stops when no seed moves more than this x cell radius")
       ->capture_default_str();
   app->add_option("--boundary", o->boundary,

@@ -258,28 +258,6 @@ Layout cvtLayout(const TriSurface& surface, const SurfaceTopology& topo, const C
     scale.resize(nv);
     for (int v = 0; v < nv; ++v) scale[v] = std::pow(std::max(rho[v], 1e-12) / rhoMean, 0.25);
   }
-  std::vector<int> seeds;
-  {
-    std::vector<double> dist(nv, kInf);
-    std::vector<int> lab(nv, -1);
-    int first = 0;
-    while (!used[first]) ++first;
-    dijkstra(g, {first}, {0}, scale, dist, lab);
-    int far = first;
-    for (int v = 0; v < nv; ++v)
-      if (used[v] && dist[v] > dist[far]) far = v;
-    std::fill(dist.begin(), dist.end(), kInf);
-    std::fill(lab.begin(), lab.end(), -1);
-    int next = far;
-    for (int c = 0; c < opt.cells; ++c) {
-      seeds.push_back(next);
-      dijkstra(g, {next}, {c}, scale, dist, lab);
-      next = -1;
-      for (int v = 0; v < nv; ++v)
-        if (used[v] && (next < 0 || dist[v] > dist[next])) next = v;
-    }
-  }
-
   // ---- 3. Lloyd iterations. Seeds are points of the work mesh (face +
   // position). Cells are grown from the seeds along mesh edges, each vertex
   // keeping the seed nearest in straight-line distance among those whose cell
@@ -291,10 +269,6 @@ Layout cvtLayout(const TriSurface& surface, const SurfaceTopology& topo, const C
       if (vertexFace[v] < 0) vertexFace[v] = f;
   std::vector<int> seedFace(opt.cells);
   std::vector<Vec3> seedPos(opt.cells);
-  for (int c = 0; c < opt.cells; ++c) {
-    seedFace[c] = vertexFace[seeds[c]];
-    seedPos[c] = wm.V[seeds[c]];
-  }
   std::vector<double> dist(nv);
   std::vector<int> label(nv);
   auto assign = [&]() {
@@ -327,51 +301,104 @@ Layout cvtLayout(const TriSurface& surface, const SurfaceTopology& topo, const C
       }
     }
   };
-  int it = 0;
-  bool converged = false;
-  const double tol = opt.tolerance * R;
-  for (; it < opt.maxIterations; ++it) {
-    assign();
-    std::vector<Vec3> csum(opt.cells, Vec3::Zero());
-    std::vector<double> wsum(opt.cells, 0.0);
-    for (int v = 0; v < nv; ++v) {
-      if (label[v] < 0) continue;
-      const double w = vArea[v] * rho[v];
-      csum[label[v]] += w * wm.V[v];
-      wsum[label[v]] += w;
-    }
-    // Project each centroid onto its own cell (faces touching the cell).
-    std::vector<double> bestD(opt.cells, kInf);
-    std::vector<int> bestF(opt.cells, -1);
-    std::vector<Vec3> bestP(opt.cells);
-    for (int f = 0; f < nf; ++f) {
-      const Tri& t = wm.F[f];
-      for (int i = 0; i < 3; ++i) {
-        const int c = label[t[i]];
-        if (c < 0 || wsum[c] <= 0 || (i > 0 && (c == label[t[0]] || (i > 1 && c == label[t[1]])))) continue;
-        const Vec3 target = csum[c] / wsum[c];
-        const Vec3 b = closestPointBary(target, wm.V[t[0]], wm.V[t[1]], wm.V[t[2]]);
-        const Vec3 p = b[0] * wm.V[t[0]] + b[1] * wm.V[t[1]] + b[2] * wm.V[t[2]];
-        const double d = (p - target).squaredNorm();
-        if (d < bestD[c]) {
-          bestD[c] = d;
-          bestF[c] = f;
-          bestP[c] = p;
-        }
+  // Lloyd converges to a local minimum whose defects (5-7 pairs) depend on
+  // the start: try several farthest-point starts, keep the lowest CVT energy.
+  double bestEnergy = kInf;
+  std::vector<Vec3> bestPos;
+  std::vector<int> bestFace;
+  int bestIt = 0, totalIt = 0;
+  bool bestConverged = false;
+  for (int attempt = 0; attempt < std::max(1, opt.restarts); ++attempt) {
+    std::vector<int> seeds;
+    {
+      std::vector<double> dist(nv, kInf);
+      std::vector<int> lab(nv, -1);
+      int first = static_cast<int>((static_cast<long long>(attempt) * nv) / std::max(1, opt.restarts));
+      while (!used[first]) first = (first + 1) % nv;
+      dijkstra(g, {first}, {0}, scale, dist, lab);
+      int far = first;
+      for (int v = 0; v < nv; ++v)
+        if (used[v] && dist[v] > dist[far]) far = v;
+      std::fill(dist.begin(), dist.end(), kInf);
+      std::fill(lab.begin(), lab.end(), -1);
+      int next = far;
+      for (int c = 0; c < opt.cells; ++c) {
+        seeds.push_back(next);
+        dijkstra(g, {next}, {c}, scale, dist, lab);
+        next = -1;
+        for (int v = 0; v < nv; ++v)
+          if (used[v] && (next < 0 || dist[v] > dist[next])) next = v;
       }
     }
-    double move = 0;
+
     for (int c = 0; c < opt.cells; ++c) {
-      if (bestF[c] < 0) continue;
-      move = std::max(move, (bestP[c] - seedPos[c]).norm());
-      seedPos[c] = bestP[c];
-      seedFace[c] = bestF[c];
+      seedFace[c] = vertexFace[seeds[c]];
+      seedPos[c] = wm.V[seeds[c]];
     }
-    if (move < tol) {
-      converged = true;
-      break;
+    int it = 0;
+    bool converged = false;
+    const double tol = opt.tolerance * R;
+    for (; it < opt.maxIterations; ++it) {
+      assign();
+      std::vector<Vec3> csum(opt.cells, Vec3::Zero());
+      std::vector<double> wsum(opt.cells, 0.0);
+      for (int v = 0; v < nv; ++v) {
+        if (label[v] < 0) continue;
+        const double w = vArea[v] * rho[v];
+        csum[label[v]] += w * wm.V[v];
+        wsum[label[v]] += w;
+      }
+      // Project each centroid onto its own cell (faces touching the cell).
+      std::vector<double> bestD(opt.cells, kInf);
+      std::vector<int> bestF(opt.cells, -1);
+      std::vector<Vec3> bestP(opt.cells);
+      for (int f = 0; f < nf; ++f) {
+        const Tri& t = wm.F[f];
+        for (int i = 0; i < 3; ++i) {
+          const int c = label[t[i]];
+          if (c < 0 || wsum[c] <= 0 || (i > 0 && (c == label[t[0]] || (i > 1 && c == label[t[1]])))) continue;
+          const Vec3 target = csum[c] / wsum[c];
+          const Vec3 b = closestPointBary(target, wm.V[t[0]], wm.V[t[1]], wm.V[t[2]]);
+          const Vec3 p = b[0] * wm.V[t[0]] + b[1] * wm.V[t[1]] + b[2] * wm.V[t[2]];
+          const double d = (p - target).squaredNorm();
+          if (d < bestD[c]) {
+            bestD[c] = d;
+            bestF[c] = f;
+            bestP[c] = p;
+          }
+        }
+      }
+      double move = 0;
+      for (int c = 0; c < opt.cells; ++c) {
+        if (bestF[c] < 0) continue;
+        move = std::max(move, (bestP[c] - seedPos[c]).norm());
+        seedPos[c] = bestP[c];
+        seedFace[c] = bestF[c];
+      }
+      if (move < tol) {
+        converged = true;
+        break;
+      }
+    }
+    assign();
+    {
+      double energy = 0;
+      for (int v = 0; v < nv; ++v)
+        if (label[v] >= 0) energy += vArea[v] * rho[v] * (wm.V[v] - seedPos[label[v]]).squaredNorm();
+      if (energy < bestEnergy) {
+        bestEnergy = energy;
+        bestPos = seedPos;
+        bestFace = seedFace;
+        bestIt = it;
+        bestConverged = converged;
+      }
+      totalIt += it;
     }
   }
+  seedPos = bestPos;
+  seedFace = bestFace;
+  const int it = bestIt;
+  const bool converged = bestConverged;
   assign();
 
   // ---- 4. Voronoi graph on the work mesh
@@ -467,6 +494,7 @@ Layout cvtLayout(const TriSurface& surface, const SurfaceTopology& topo, const C
   Layout lay;
   lay.numCells = opt.cells;
   lay.cellOpen.assign(opt.cells, 0);
+  lay.cellOnBoundary.assign(opt.cells, 0);
   std::vector<int> nodeOf(gn.size(), -1);
   auto layoutNode = [&](int x) {
     if (nodeOf[x] < 0) {
@@ -545,7 +573,10 @@ Layout cvtLayout(const TriSurface& surface, const SurfaceTopology& topo, const C
   // ---- 5. open surfaces
   for (const auto& loop : wtopo.boundaryLoops) {
     const int n = static_cast<int>(loop.size());
-    for (int v : loop) lay.cellOpen[label[v]] = opt.boundary == BoundaryMode::Free;
+    for (int v : loop) {
+      lay.cellOpen[label[v]] = opt.boundary == BoundaryMode::Free;
+      lay.cellOnBoundary[label[v]] = 1;
+    }
     if (opt.boundary == BoundaryMode::Free) continue;
     std::vector<int> cuts;  // edge indices i (loop[i] -> loop[i+1]) crossed by a cell boundary
     for (int i = 0; i < n; ++i)

@@ -37,6 +37,7 @@ enum class BoundaryMode { Rim, Free };
 struct CvtOptions {
   int cells = 64;                // number of Voronoi cells (seeds)
   int maxIterations = 200;       // Lloyd iterations (stops earlier when converged)
+  int restarts = 3;              // Lloyd runs from different farthest-point starts; lowest energy wins
   double tolerance = 1e-3;       // converged when no seed moves more than this x cell radius
   double mergeFraction = 0.15;   // contract Voronoi edges shorter than this x median
   int maxWorkFaces = 400000;     // cap on the refined mesh size

@@ -37,6 +37,8 @@ struct Layout {
   // Cells whose polygon is open (boundary cells in "free" boundary mode, or
   // dual cells around boundary vertices): excluded from the polygon counts.
   std::vector<char> cellOpen;
+  // Cells that touch the surface boundary (their polygon is clipped there).
+  std::vector<char> cellOnBoundary;
 };
 
 }  // namespace rodmesh::meshing

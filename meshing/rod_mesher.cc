@@ -105,6 +105,7 @@ Layout dualLayout(const TriSurface& s, int targetFaces) {
   lay.numCells = static_cast<int>(coarse.vertices.size());
   lay.cellOpen.assign(lay.numCells, 0);
   for (int v = 0; v < lay.numCells; ++v) lay.cellOpen[v] = ct.isBoundaryVertex[v];
+  lay.cellOnBoundary = lay.cellOpen;
   for (const Tri& t : coarse.faces) {
     const Vec3 c = (coarse.vertices[t[0]] + coarse.vertices[t[1]] + coarse.vertices[t[2]]) / 3;
     LayoutNode n;
@@ -334,8 +335,12 @@ MeshResult meshSurface(const TriSurface& surface, const std::vector<DeformedPose
     if (it == cellSides.end()) continue;
     ++rep.polygonSides[it->second];
     ++rep.closedCells;
+    if (!lay.cellOnBoundary.empty() && lay.cellOnBoundary[c]) continue;
+    ++rep.interiorCells;
+    if (it->second == 6) ++rep.interiorHexagons;
   }
   rep.hexagonShare = rep.closedCells ? static_cast<double>(rep.polygonSides[6]) / rep.closedCells : 0.0;
+  rep.interiorHexagonShare = rep.interiorCells ? static_cast<double>(rep.interiorHexagons) / rep.interiorCells : 0.0;
   if (rep.polygonSides[6] == 0) rep.polygonSides.erase(6);
   for (std::size_t n = 0; n < lay.nodes.size(); ++n) {
     if (nodeRods[n] == 0) continue;
@@ -360,7 +365,10 @@ std::string formatReport(const MeshReport& r) {
   o << "rod mesh: " << r.vertices << " vertices, " << r.edges << " edges, " << r.rods << " rods, " << r.connections
     << " connections, " << r.freeEnds << " free ends\n";
   o << "cells: " << r.cells << " (" << r.closedCells << " closed, " << r.openCells << " open at the boundary); hexagons "
-    << 100.0 * r.hexagonShare << "% of closed cells\n";
+    << 100.0 * r.hexagonShare << "% of closed cells";
+  if (r.interiorCells != r.closedCells)
+    o << ", " << 100.0 * r.interiorHexagonShare << "% of the " << r.interiorCells << " cells away from the boundary";
+  o << "\n";
   o << "cell sides:";
   for (auto [k, n] : r.polygonSides) o << " " << k << ":" << n;
   o << "\nconnection valence:";

@@ -56,6 +56,8 @@ struct MeshReport {
   std::map<int, int> polygonSides;    // sides -> number of closed cells
   int closedCells = 0, openCells = 0;
   double hexagonShare = 0.0;          // hexagons / closed cells
+  int interiorCells = 0, interiorHexagons = 0;  // closed cells not touching the surface boundary
+  double interiorHexagonShare = 0.0;
   std::map<int, int> valence;         // rods at a node -> number of nodes
   int connections = 0, freeEnds = 0;
   int vertices = 0, rods = 0, edges = 0;
