@@ -110,9 +110,9 @@ std::vector<Vec3> shortestGeodesic(const TriSurface& s, const std::vector<int>& 
   }
   const Vec3 pa = evalPoint(s, a), pb = evalPoint(s, b);
   if ((path.front() - pa).norm() > (path.front() - pb).norm()) std::reverse(path.begin(), path.end());
+  if (path.size() < 2) return {pa, pb};
   path.front() = pa;
   path.back() = pb;
-  if (path.size() == 1) path.push_back(pb);
   return path;
 }
 
