@@ -88,7 +88,7 @@ bool findPlane(const Scene& scene, const RodNetwork& net, Eigen::Vector3d& norma
 
 }  // namespace
 
-bool connectionModelAvailable() { return false; }
+bool connectionModelAvailable() { return true; }
 
 EffectSet resolveEffects(const Scene& scene, const RodNetwork& net) {
   EffectSet fx;

@@ -2,10 +2,12 @@
 
 #include "model/energies/bend_twist.hh"
 #include "model/energies/clamp.hh"
+#include "model/energies/connection.hh"
 #include "model/energies/gravity.hh"
 #include "model/energies/stretch.hh"
 
 #include <algorithm>
+#include <limits>
 #include <stdexcept>
 #include <type_traits>
 
@@ -45,8 +47,8 @@ struct LinMap {
   }
 };
 
-constexpr int kMaxLocal = 24;  // local variables per stencil (x and p together)
-constexpr int kMaxStencil = 12;  // unknowns per stencil
+constexpr int kMaxLocal = 32;    // local variables of one kind (x or p) per stencil
+constexpr int kMaxStencil = 28;  // unknowns per stencil
 
 // Builds a 3-vector from D local scalars w and a constant offset c:
 // D = 3: the scalars themselves; D = 2: c + B w.
@@ -248,8 +250,70 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
     for (int v = 0; v < nv; ++v)
       if (clamped[v])
         for (int e : network.vertexEdges()[v]) clamp_.push_back({v, e});
+  if (fx_.has(Effect::Connections) && (fx_.has(Effect::Bend) || twist_))
+    for (const Connection& c : network.connections()) {
+      if (clamped[c.vertex]) continue;  // the clamp holds every incident edge
+      const int k = static_cast<int>(c.edges.size());
+      if (k > energies::kMaxConnectionValence)
+        throw std::invalid_argument("connection at vertex " + std::to_string(c.vertex) + " joins " + std::to_string(k) +
+                                    " edges; at most " + std::to_string(energies::kMaxConnectionValence) + " are supported");
+      ConnSt st{c.vertex, k, {}};
+      for (int i = 0; i < k; ++i) st.edges[i] = c.edges[i];
+      conn_.push_back(st);
+    }
 
+  for (int e = 0; e < ne; ++e) sceneRestFrames_.push_back(network.restFrame(e, scene.vertices));
+  resetCharts(Design::fromScene(scene));
   buildPattern();
+}
+
+void PoseSystem::resetCharts(const Design& d) {
+  const int ne = net_.numEdges();
+  chartT_.resize(ne);
+  chartD_.resize(ne);
+  for (int e = 0; e < ne; ++e) {
+    const EdgeFrame f = net_.restFrame(e, d.restPositions);
+    chartT_[e] = f.t;
+    chartD_[e] = f.d1;
+  }
+}
+
+namespace {
+// Transport of v from unit a to unit b (double).
+Vec3 transportD(const Vec3& a, const Vec3& b, const Vec3& v) {
+  const Vec3 c = a.cross(b);
+  const double d = a.dot(b);
+  return d * v + c.cross(v) + (c.dot(v) / (1.0 + d)) * c;
+}
+double signedAngleD(const Vec3& p, const Vec3& q, const Vec3& t) { return std::atan2(p.cross(q).dot(t), p.dot(q)); }
+}  // namespace
+
+bool PoseSystem::reanchorCharts(const Eigen::VectorXd& u, double cosLimit) {
+  const std::vector<Vec3> x = positions(u);
+  bool changed = false;
+  for (int e = 0; e < net_.numEdges(); ++e) {
+    const Edge& ed = net_.edges()[e];
+    const Vec3 t = (x[ed.b] - x[ed.a]).normalized();
+    if (t.dot(chartT_[e]) >= cosLimit) continue;
+    chartD_[e] = transportD(chartT_[e], t, chartD_[e]).normalized();
+    chartT_[e] = t;
+    changed = true;
+  }
+  return changed;
+}
+
+Eigen::VectorXd PoseSystem::materialTwists(const Eigen::VectorXd& u) const {
+  Eigen::VectorXd th = twists(u);
+  if (!twist_) return th;
+  const std::vector<Vec3> x = positions(u);
+  for (int e = 0; e < net_.numEdges(); ++e) {
+    const Edge& ed = net_.edges()[e];
+    const Vec3 t = (x[ed.b] - x[ed.a]).normalized();
+    const Vec3 ref = transportD(chartT_[e], t, chartD_[e]);
+    const Vec3 restRef = transportD(sceneRestFrames_[e].t, t, sceneRestFrames_[e].d1);
+    th[e] += signedAngleD(restRef, ref, t);
+  }
+  return th;
 }
 
 Vec3 PoseSystem::heldPosition(int v) const {
@@ -289,6 +353,16 @@ Eigen::VectorXd PoseSystem::restDofs(const Design& d) const {
   return dofsFrom(d.restPositions, Eigen::VectorXd::Zero(net_.numEdges()));
 }
 
+double PoseSystem::roundoffForce(const Design& d) const {
+  double ea = 0.0, extent = 0.0, shortest = std::numeric_limits<double>::max();
+  for (std::size_t v = 0; v < d.radii.size(); ++v) {
+    ea = std::max(ea, stiffness::stretching(scene_.material.youngModulus, d.radii[v][0], d.radii[v][1]));
+    extent = std::max(extent, d.restPositions[v].cwiseAbs().maxCoeff());
+  }
+  for (const Edge& e : net_.edges()) shortest = std::min(shortest, (d.restPositions[e.b] - d.restPositions[e.a]).norm());
+  return 1e3 * std::numeric_limits<double>::epsilon() * ea * std::max(1.0, extent / shortest);
+}
+
 Eigen::VectorXd PoseSystem::forceResidual(const Eigen::VectorXd& g) const {
   Eigen::VectorXd r = g;
   if (twist_) r.segment(nVertexDofs_, net_.numEdges()) /= momentArm_;
@@ -323,6 +397,17 @@ void PoseSystem::forEachStencilDofs(Fn&& fn) const {
     vtx(edges[s.edge].a, n);
     vtx(edges[s.edge].b, n);
     if (twist_) buf[n++] = thetaDof(s.edge);
+    fn(buf, n);
+  }
+  for (const ConnSt& s : conn_) {
+    int n = 0;
+    vtx(s.vertex, n);
+    for (int i = 0; i < s.k; ++i) {
+      const Edge& e = edges[s.edges[i]];
+      vtx(e.a == s.vertex ? e.b : e.a, n);
+    }
+    if (twist_)
+      for (int i = 0; i < s.k; ++i) buf[n++] = thetaDof(s.edges[i]);
     fn(buf, n);
   }
 }
@@ -501,6 +586,26 @@ struct ClampK {
     return energies::clampEnergy(e, th, rest, k);
   }
 };
+template <int D, bool TW, int K>
+struct ConnectionK {
+  energies::ConnectionConst<K> k;
+  Vec3 off[K];
+  const Mat32* B;
+  template <class S, class P>
+  S operator()(const S* x, const P* p) const {
+    V3<S> e[K];
+    S th[K];
+    for (int i = 0; i < K; ++i) {
+      e[i] = embed<D>(x + D * i, off[i], *B);
+      th[i] = TW ? x[D * K + i] : S(0.0);
+    }
+    V3<P> E[K];
+    for (int i = 0; i < K; ++i) E[i] = V3<P>(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+    const auto rest = energies::connectionRest<P, K>(E, p + 3 * K, k);
+    return energies::connectionEnergy<S, P, K>(e, th, rest, k);
+  }
+};
+
 template <int D, bool TW>
 struct GravityK {
   energies::GravityConst k;
@@ -547,6 +652,10 @@ struct GravityK {
         BendK<D, TW> kern;                                                                             \
         kern.k.n0 = net_.edgeNormals()[s.e0];                                                          \
         kern.k.n1 = net_.edgeNormals()[s.e1];                                                          \
+        kern.k.chartT0 = chartT_[s.e0];                                                                \
+        kern.k.chartD0 = chartD_[s.e0];                                                                \
+        kern.k.chartT1 = chartT_[s.e1];                                                                \
+        kern.k.chartD1 = chartD_[s.e1];                                                                \
         kern.k.youngModulus = E_;                                                                      \
         kern.k.shearModulus = G_;                                                                      \
         kern.k.bend = fx_.has(Effect::Bend);                                                           \
@@ -574,6 +683,8 @@ struct GravityK {
         const int pa = addVertex(ls, CTX, ed.a), pb = addVertex(ls, CTX, ed.b);                        \
         ClampK<D, TW> kern;                                                                            \
         kern.k.n = net_.edgeNormals()[s.edge];                                                         \
+        kern.k.chartT = chartT_[s.edge];                                                               \
+        kern.k.chartD = chartD_[s.edge];                                                               \
         kern.k.youngModulus = E_;                                                                      \
         kern.k.shearModulus = G_;                                                                      \
         kern.k.bend = fx_.has(Effect::Bend);                                                           \
@@ -586,6 +697,20 @@ struct GravityK {
         VISIT(kern, ls, sidx_);                                                                        \
         ++sidx_;                                                                                       \
       }                                                                                                \
+    else                                                                                               \
+      sidx_ += static_cast<int>(clamp_.size());                                                        \
+    if (use(Terms::Connection))                                                                        \
+      for (const ConnSt& s : conn_) {                                                                  \
+        switch (s.k) {                                                                                 \
+          case 2: visitConnection<D, TW, 2>(s, CTX, VISIT, sidx_); break;                              \
+          case 3: visitConnection<D, TW, 3>(s, CTX, VISIT, sidx_); break;                              \
+          case 4: visitConnection<D, TW, 4>(s, CTX, VISIT, sidx_); break;                              \
+          case 5: visitConnection<D, TW, 5>(s, CTX, VISIT, sidx_); break;                              \
+          case 6: visitConnection<D, TW, 6>(s, CTX, VISIT, sidx_); break;                              \
+          default: break;                                                                              \
+        }                                                                                              \
+        ++sidx_;                                                                                       \
+      }                                                                                                \
   } while (0)
 
 namespace {
@@ -594,7 +719,43 @@ template <int D, bool TW> struct KernelSize<StretchK<D, TW>> { static constexpr 
 template <int D, bool TW> struct KernelSize<BendK<D, TW>> { static constexpr int nx = 2 * D + (TW ? 2 : 0), np = 8; };
 template <int D, bool TW> struct KernelSize<ClampK<D, TW>> { static constexpr int nx = D + (TW ? 1 : 0), np = 5; };
 template <int D, bool TW> struct KernelSize<GravityK<D, TW>> { static constexpr int nx = 2 * D, np = 7; };
+template <int D, bool TW, int K>
+struct KernelSize<ConnectionK<D, TW, K>> { static constexpr int nx = K * D + (TW ? K : 0), np = 5 * K + 2; };
 }  // namespace
+
+template <int D, bool TW, int K, class Ctx, class Visit>
+void PoseSystem::visitConnection(const ConnSt& s, const Ctx& ctx, Visit& visit, int sidx) const {
+  const auto& edges = net_.edges();
+  LocalStencil ls;
+  const int pc = addVertex(ls, ctx, s.vertex);
+  int pfar[K];
+  int far[K];
+  for (int i = 0; i < K; ++i) {
+    const Edge& e = edges[s.edges[i]];
+    far[i] = e.a == s.vertex ? e.b : e.a;
+    pfar[i] = addVertex(ls, ctx, far[i]);
+  }
+  ConnectionK<D, TW, K> kern;
+  kern.k.youngModulus = scene_.material.youngModulus;
+  kern.k.shearModulus = scene_.material.shearModulus();
+  kern.k.bend = fx_.has(Effect::Bend);
+  kern.k.twist = TW;
+  kern.B = ctx.B;
+  for (int i = 0; i < K; ++i) {
+    const Edge& e = edges[s.edges[i]];
+    kern.k.n[i] = net_.edgeNormals()[s.edges[i]];
+    kern.k.chartT[i] = chartT_[s.edges[i]];
+    kern.k.chartD[i] = chartD_[s.edges[i]];
+    const bool out = e.a == s.vertex;
+    kern.off[i] = addEdgeVars(ls, ctx, e.a, e.b, out ? pc : pfar[i], out ? pfar[i] : pc);
+  }
+  if constexpr (TW)
+    for (int i = 0; i < K; ++i) addThetaVar(ls, ctx, s.edges[i], addTheta(ls, ctx, s.edges[i]));
+  for (int i = 0; i < K; ++i) addRestEdge(ls, ctx, edges[s.edges[i]].a, edges[s.edges[i]].b);
+  addRadii(ls, ctx, s.vertex);
+  for (int i = 0; i < K; ++i) addRadii(ls, ctx, far[i]);
+  visit(kern, ls, sidx);
+}
 
 // Gravity and point forces are linear in the positions: they add to the
 // gradient only (no Hessian) in simulation.

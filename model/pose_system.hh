@@ -16,8 +16,9 @@
 //   2. radii [r_t, r_n], 2 per vertex [m].
 //
 // Energy terms (model/energies/*.hh): stretch per edge, bend+twist per interior
-// vertex, clamp coupling per (clamped vertex, incident edge), gravity per edge,
-// point forces per vertex. Each is a kernel templated on the scalar type and
+// vertex, clamp coupling per (clamped vertex, incident edge), connection
+// coupling per connection (not clamped), gravity per edge, point forces per
+// vertex, twisting moments per free end. Each is a kernel templated on the scalar type and
 // differentiated by forward-mode AD (model/ad.hh), so the Hessian and the third
 // derivatives are exact.
 #pragma once
@@ -78,9 +79,12 @@ class PoseSystem {
   // Unknowns of the rest configuration (held vertices are not unknowns).
   Eigen::VectorXd restDofs(const Design& d) const;
   // Full positions (held vertices at their prescribed positions) and edge twist
-  // angles (zeros when twist is not simulated).
+  // angles (zeros when twist is not simulated). twists() reports the unknown
+  // itself; materialTwists() the angle of each edge's material frame from its
+  // rest frame transported to the current tangent (chart-independent).
   std::vector<Vec3> positions(const Eigen::VectorXd& u) const;
   Eigen::VectorXd twists(const Eigen::VectorXd& u) const;
+  Eigen::VectorXd materialTwists(const Eigen::VectorXd& u) const;
   // Unknowns from full positions and twists (inverse of the above).
   Eigen::VectorXd dofsFrom(const std::vector<Vec3>& x, const Eigen::VectorXd& theta) const;
 
@@ -95,8 +99,28 @@ class PoseSystem {
   JointDerivatives joint(const Eigen::VectorXd& u, const Design& d) const;
   JointDerivatives jointDirectional(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& v) const;
 
+  // Reference-frame charts (one per edge): an edge's reference director is the
+  // chart director transported from the chart tangent to its current tangent,
+  // and its twist unknown is the material frame's angle from it. The energy is
+  // smooth except where an edge points against its chart tangent. By default
+  // the charts are the rest frames of the design (theta = 0 at rest);
+  // reanchorCharts moves the chart of every edge that has turned more than
+  // acos(cosLimit) from it to its current frame, which leaves the material
+  // frames, the energy and the equilibria unchanged (a change of coordinates).
+  struct Charts {
+    std::vector<Vec3> tangent, director;
+  };
+  void resetCharts(const Design& d);
+  Charts charts() const { return {chartT_, chartD_}; }
+  void setCharts(const Charts& c) { chartT_ = c.tangent; chartD_ = c.director; }
+  bool reanchorCharts(const Eigen::VectorXd& u, double cosLimit = -0.25);
+  const std::vector<Vec3>& chartTangents() const { return chartT_; }
+
   // Length that turns moments into forces in residual norms: mean rest edge length.
   double momentArm() const { return momentArm_; }
+  // Force below which residuals are round-off (N): 1e3 eps E A_max times the
+  // ratio of the scene's extent to its shortest edge.
+  double roundoffForce(const Design& d) const;
   // Residual vector in newtons: position components as they are, twist
   // components divided by momentArm().
   Eigen::VectorXd forceResidual(const Eigen::VectorXd& gradient) const;
@@ -105,15 +129,17 @@ class PoseSystem {
   int numStretch() const { return static_cast<int>(stretch_.size()); }
   int numBendTwist() const { return static_cast<int>(bend_.size()); }
   int numClamp() const { return static_cast<int>(clamp_.size()); }
+  int numConnectionTerms() const { return static_cast<int>(conn_.size()); }
 
   // Restrict evaluation to one kind of term (tests, diagnostics).
-  enum class Terms { All, Stretch, BendTwist, Clamp, Gravity, Forces };
+  enum class Terms { All, Stretch, BendTwist, Clamp, Gravity, Forces, Connection };
   void setTermFilter(Terms t) { filter_ = t; }
 
  private:
   struct StretchSt { int edge; };
   struct BendSt { int vertex, e0, e1; };
   struct ClampSt { int vertex, edge; };
+  struct ConnSt { int vertex; int k; int edges[8]; };
   struct Stencil {
     int offset = 0;  // into stencilDofs_ / slot tables
     int size = 0;
@@ -125,6 +151,8 @@ class PoseSystem {
   template <class Fn>
   void forEachStencilDofs(Fn&& fn) const;
 
+  template <int D, bool TW, int K, class Ctx, class Visit>
+  void visitConnection(const ConnSt& s, const Ctx& ctx, Visit& visit, int sidx) const;
   template <int D, bool TW, class Out>
   void runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const;
   template <int D, bool TW, class T>
@@ -141,6 +169,8 @@ class PoseSystem {
   double momentArm_ = 1.0;
   Terms filter_ = Terms::All;
 
+  std::vector<Vec3> chartT_, chartD_;  // per edge
+  std::vector<EdgeFrame> sceneRestFrames_;  // rest frames of the scene's design (twist output)
   std::vector<int> vertexDof_;
   std::vector<bool> held_;
   std::vector<Vec3> heldTarget_;  // prescribed position at load factor 1
@@ -150,6 +180,7 @@ class PoseSystem {
   std::vector<StretchSt> stretch_;
   std::vector<BendSt> bend_;
   std::vector<ClampSt> clamp_;
+  std::vector<ConnSt> conn_;
 
   // Sparsity: per stencil (stretch, bend, clamp in that order) its unknowns and
   // the Hessian value slot of each (i >= j) pair.

@@ -26,7 +26,7 @@ SimulationResult simulateAll(SceneModel& model, const Design& design, const Newt
     r.dofs = sys.restDofs(design);
     r.report = solveEquilibrium(sys, design, r.dofs, options);
     r.positions = sys.positions(r.dofs);
-    r.twist = sys.twists(r.dofs);
+    r.twist = sys.materialTwists(r.dofs);
     const auto& target = model.scene().poses[p].target;
     if (!target.empty()) r.rmsError = rmsError(r.positions, target);
     out.allConverged = out.allConverged && r.report.converged;

@@ -17,7 +17,7 @@ namespace rodmesh {
 struct PoseResult {
   std::string name;
   std::vector<Vec3> positions;
-  Eigen::VectorXd twist;  // per edge; zeros when twist is not simulated
+  Eigen::VectorXd twist;  // per edge, material frame from the transported rest frame; zeros without twist
   Eigen::VectorXd dofs;
   NewtonReport report;
   std::optional<double> rmsError;  // m, when the pose has a target

@@ -60,6 +60,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
   std::vector<int> diagSlot;
   int escapes = 0;
   const double eps = std::numeric_limits<double>::epsilon();
+  const double floorForce = system.roundoffForce(design);
   const bool debug = std::getenv("RODMESH_DEBUG_NEWTON") != nullptr;
 
   auto ta = Clock::now();
@@ -125,7 +126,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     rep.factorSeconds += since(ta);
     rep.negativePivots = negative;
 
-    const bool small = res <= tolerance * scale;
+    const bool small = res <= tolerance * scale || res <= floorForce;
     if (small && negative == 0) {
       rep.converged = true;
       rep.message = "force residual below tolerance";
@@ -264,6 +265,12 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     u = uTrial;
     E = Etrial;
     g = gTrial;
+    // Edges that turned far from their reference-frame chart get a new one
+    // (same energy, new coordinates): the derivatives are re-evaluated.
+    if (system.reanchorCharts(u)) {
+      rep.chartUpdates++;
+      system.evaluate(u, design, E, g, true);
+    }
   }
   rep.timeSeconds = since(t0);
   return rep;
@@ -274,6 +281,8 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
   const auto t0 = Clock::now();
   const double saved = system.loadFactor();
   system.setLoadFactor(1.0);
+  system.resetCharts(design);
+  const PoseSystem::Charts restCharts = system.charts();
   const double scale = loadScale(system, design);
   NewtonReport total;
   total.loadScale = scale;
@@ -288,7 +297,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
     total.residualHistory.insert(total.residualHistory.end(), r.residualHistory.begin(), r.residualHistory.end());
     total.loadSteps++;
   };
-  if (scale == 0.0) {
+  if (scale <= system.roundoffForce(design)) {
     // No load at all: the rest configuration is the equilibrium.
     total.converged = true;
     total.message = "no load: rest configuration";
@@ -309,8 +318,11 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
   if (r.converged) {
     u = uTry;
   } else {
-    // Adaptive continuation in the load factor, from the rest state.
+    // Adaptive continuation in the load factor, from the rest state; the
+    // reference-frame charts travel with the state they belong to.
+    system.setCharts(restCharts);
     Eigen::VectorXd uCur = system.restDofs(design);
+    PoseSystem::Charts chartsCur = restCharts;
     double lam = 0.0, step = 0.5;
     const double minStep = std::ldexp(1.0, -opt.maxLoadHalvings);
     // Intermediate load steps need not be tight, but never sloppy.
@@ -319,6 +331,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
     while (lam < 1.0) {
       const double next = std::min(1.0, lam + step);
       system.setLoadFactor(next);
+      system.setCharts(chartsCur);
       uTry = uCur;
       NewtonReport rs = newtonSolve(system, design, uTry, scale, next < 1.0 ? stepTol : opt.tolerance, opt);
       merge(rs);
@@ -326,6 +339,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
       if (rs.converged) {
         lam = next;
         uCur = uTry;
+        chartsCur = system.charts();
         step = std::min(2 * step, 1.0);
       } else {
         step *= 0.5;
@@ -333,6 +347,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
       }
     }
     u = uCur;
+    system.setCharts(chartsCur);
     if (failed) {
       std::ostringstream os;
       os << "did not converge: the load step fell below " << minStep << " at load factor " << lam << " (last: "

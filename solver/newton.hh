@@ -49,6 +49,7 @@ struct NewtonReport {
   bool unstable = false;            // converged to an equilibrium with negative curvature
   int negativePivots = 0;           // of the last factorization (0: stable)
   int escapes = 0;                  // steps taken along negative curvature
+  int chartUpdates = 0;             // iterations after which reference-frame charts moved
   double energy = 0.0;              // J, final
   double timeSeconds = 0.0;
   double assemblySeconds = 0.0, factorSeconds = 0.0;

@@ -7,12 +7,12 @@
 //   E_t = 1/(2 l) * beta * (theta1 - theta0 + psi - psī)^2,
 //   beta = G pi r_t^3 r_n^3 / (r_t^2 + r_n^2),   l = (|E0| + |E1|) / 2.
 //
-// Reference directors u_j are the rest directors d1 parallel-transported from
-// the rest tangent to the current tangent (no state carried between
-// evaluations); psi is the reference twist, the signed angle about t1 from the
+// Reference directors u_j are fixed chart directors parallel-transported from
+// the chart tangent to the current tangent (by default the rest frames; no state
+// carried between evaluations); psi is the reference twist, the signed angle about t1 from the
 // transport of u0 along t0 -> t1 to u1. Barred quantities are rest values
 // computed from the rest edges E0, E1 and the reference normals (theta = 0 at
-// rest). Non-smooth only where an edge is antiparallel to its rest tangent, where
+// rest). Non-smooth only where an edge is antiparallel to its chart tangent, where
 // two consecutive edges are antiparallel, or where psi - psī reaches +-pi (see
 // docs/model.md).
 //
@@ -27,6 +27,9 @@ namespace rodmesh::energies {
 
 struct BendTwistConst {
   Eigen::Vector3d n0 = Eigen::Vector3d::UnitZ(), n1 = Eigen::Vector3d::UnitZ();  // reference normals of e0, e1
+  // Reference-frame charts of e0, e1: the reference director of an edge is
+  // chartD transported from chartT to the current tangent (see PoseSystem).
+  Eigen::Vector3d chartT0, chartD0, chartT1, chartD1;
   double youngModulus = 0.0, shearModulus = 0.0;
   bool bend = true, twist = true;
 };
@@ -62,8 +65,8 @@ template <class S, class P>
 S bendTwistEnergy(const V3<S>& e0, const V3<S>& e1, const S& th0, const S& th1, const BendTwistRest<P>& r,
                   const BendTwistConst& c) {
   const V3<S> t0 = normalized(e0), t1 = normalized(e1);
-  const V3<S> u0 = transportFromRest(r.F0.t, t0, r.F0.d1);
-  const V3<S> u1 = transportFromRest(r.F1.t, t1, r.F1.d1);
+  const V3<S> u0 = transportFromRest(V3<double>(c.chartT0), t0, V3<double>(c.chartD0));
+  const V3<S> u1 = transportFromRest(V3<double>(c.chartT1), t1, V3<double>(c.chartD1));
   S energy(0.0);
   if (c.bend) {
     V3<S> m1a, m2a, m1b, m2b;

@@ -7,8 +7,8 @@
 //   E = 1/(2 l) * 1/2 [ w_F^T B w_F + w_e^T B w_e ] + 1/(2 l) beta theta^2,
 //   kb = 2 T x t / (1 + T . t),  w_F = (kb . D2, -kb . D1),  w_e = (kb . m2, -kb . m1).
 //
-// The edge's reference director is the transport of D1 from T to t, so the
-// twist relative to the held frame is theta itself. The same structure, with a
+// With the rest chart the edge's reference director is the transport of D1
+// from T to t, so the twist relative to the held frame is theta itself. The same structure, with a
 // rotated frame, couples rods at connections.
 //
 // Local variables: x = e (3), theta; p = E (3), r_t, r_n at the clamped vertex.
@@ -21,6 +21,7 @@ namespace rodmesh::energies {
 
 struct ClampConst {
   Eigen::Vector3d n = Eigen::Vector3d::UnitZ();  // reference normal of the edge
+  Eigen::Vector3d chartT, chartD;                // reference-frame chart of the edge
   double youngModulus = 0.0, shearModulus = 0.0;
   bool bend = true, twist = true;
 };
@@ -45,9 +46,9 @@ ClampRest<P> clampRest(const V3<P>& E, const P& rt, const P& rn, const ClampCons
 template <class S, class P>
 S clampEnergy(const V3<S>& e, const S& th, const ClampRest<P>& r, const ClampConst& c) {
   const V3<S> t = normalized(e);
+  const V3<S> u = transportFromRest(V3<double>(c.chartT), t, V3<double>(c.chartD));
   S energy(0.0);
   if (c.bend) {
-    const V3<S> u = transportFromRest(r.F.t, t, r.F.d1);
     V3<S> m1, m2;
     materialDirectors(t, u, th, m1, m2);
     const V3<S> kb = (S(2.0) / (S(1.0) + dotm(r.F.t, t))) * crossm(r.F.t, t);
@@ -55,7 +56,12 @@ S clampEnergy(const V3<S>& e, const S& th, const ClampRest<P>& r, const ClampCon
     const S we1 = dot(kb, m2), we2 = dot(kb, m1);
     energy = (wf1 * wf1 + we1 * we1) * r.kIn + (wf2 * wf2 + we2 * we2) * r.kOut;
   }
-  if (c.twist) energy = energy + th * th * r.kTwist;
+  if (c.twist) {
+    // Twist relative to the held frame: theta plus the angle from the held
+    // director transported to t to the reference director (zero for the rest chart).
+    const S tau = th + signedAngle(transportFromRest(r.F.t, t, r.F.d1), u, t);
+    energy = energy + tau * tau * r.kTwist;
+  }
   return energy;
 }
 

@@ -18,15 +18,49 @@ using testutil::taylorTest;
 using testutil::taylorTestScalar;
 using Terms = PoseSystem::Terms;
 
-enum class Kind { Spatial, Planar, SpatialNoTwist };
+enum class Kind { Spatial, Planar, SpatialNoTwist, Network, NetworkPlanar };
 
 const char* kindName(Kind k) {
   switch (k) {
     case Kind::Spatial: return "spatial";
     case Kind::Planar: return "planar";
     case Kind::SpatialNoTwist: return "spatial-no-twist";
+    case Kind::Network: return "network";
+    case Kind::NetworkPlanar: return "network-planar";
   }
   return "?";
+}
+
+// A small rod network: a 3-valent connection (vertex 0) of three curved rods
+// and a 2-valent, nearly straight connection (vertex 4) in the middle of one
+// of them, anisotropic radii, far ends fixed or clamped, loads.
+Scene makeNetwork(bool planar) {
+  Scene s;
+  s.sourcePath = "<derivatives>";
+  s.material = Material{2e7, 0.45, 1100.0};
+  s.vertices.push_back(Vec3(0, 0, 0));
+  const double angles[3] = {0.1, 2.2, 4.1};
+  for (int r = 0; r < 3; ++r) {
+    const Vec3 dir(std::cos(angles[r]), std::sin(angles[r]), 0.0);
+    const Vec3 side(-dir.y(), dir.x(), 0.0);
+    const int first = static_cast<int>(s.vertices.size());
+    for (int i = 1; i <= 3; ++i)
+      s.vertices.push_back(0.01 * i * dir + 0.0008 * i * i * side + Vec3(0, 0, planar ? 0.0 : 0.001 * i * i));
+    s.rods.push_back(Rod{{0, first, first + 1, first + 2}, std::nullopt});
+  }
+  // Split rod 0 at its second vertex (index 2): rods 0-1-2 and 2-3 share vertex 2.
+  s.rods[0].vertices = {0, 1, 2};
+  s.rods.push_back(Rod{{2, 3}, std::nullopt});
+  for (std::size_t v = 0; v < s.vertices.size(); ++v)
+    s.radii.push_back(Vec2(0.0012 + 0.0002 * (v % 4), 0.0008 + 0.0001 * (v % 3)));
+  s.gravity = planar ? Vec3(0.0, -9.81, 0.0) : Vec3(0.5, -2.0, -9.81);
+  Pose p;
+  p.name = "p";
+  p.clamped.push_back({3});
+  p.fixed.push_back({6, std::nullopt});
+  p.forces.push_back({9, planar ? Vec3(0.01, -0.02, 0.0) : Vec3(0.01, -0.02, 0.03)});
+  s.poses.push_back(p);
+  return s;
 }
 
 // A curved rod of 7 vertices (a helix arc, or a planar arc), anisotropic
@@ -79,7 +113,8 @@ struct Fixture {
 
 std::unique_ptr<Fixture> makeFixture(Kind kind, unsigned seed) {
   auto f = std::make_unique<Fixture>();
-  f->scene = makeScene(kind);
+  f->scene = (kind == Kind::Network || kind == Kind::NetworkPlanar) ? makeNetwork(kind == Kind::NetworkPlanar)
+                                                                     : makeScene(kind);
   f->model = std::make_unique<SceneModel>(f->scene);
   f->design = Design::fromScene(f->scene);
   PoseSystem& sys = f->sys();
@@ -132,7 +167,7 @@ struct Case {
 };
 
 std::string caseName(const testing::TestParamInfo<Case>& info) {
-  static const char* names[] = {"All", "Stretch", "BendTwist", "Clamp", "Gravity", "Forces"};
+  static const char* names[] = {"All", "Stretch", "BendTwist", "Clamp", "Gravity", "Forces", "Connection"};
   std::string k = kindName(info.param.kind);
   for (char& c : k)
     if (c == '-') c = '_';
@@ -260,6 +295,8 @@ std::vector<Case> allCases() {
   for (Kind k : {Kind::Spatial, Kind::Planar, Kind::SpatialNoTwist})
     for (Terms t : {Terms::All, Terms::Stretch, Terms::BendTwist, Terms::Clamp, Terms::Gravity, Terms::Forces})
       cs.push_back({k, t});
+  for (Kind k : {Kind::Network, Kind::NetworkPlanar})
+    for (Terms t : {Terms::All, Terms::Connection}) cs.push_back({k, t});
   return cs;
 }
 
@@ -289,6 +326,12 @@ TEST(TermDerivatives, ScenesExerciseEveryTerm) {
   auto p = makeFixture(Kind::Planar, 1);
   EXPECT_EQ(p->sys().dofsPerVertex(), 2);
   EXPECT_FALSE(p->sys().hasTwist());
+  auto net = makeFixture(Kind::Network, 1);
+  EXPECT_EQ(net->sys().numConnectionTerms(), 2);
+  EXPECT_TRUE(net->sys().hasTwist());
+  auto netp = makeFixture(Kind::NetworkPlanar, 1);
+  EXPECT_EQ(netp->sys().numConnectionTerms(), 2);
+  EXPECT_EQ(netp->sys().dofsPerVertex(), 2);
   auto q = makeFixture(Kind::SpatialNoTwist, 1);
   EXPECT_EQ(q->sys().dofsPerVertex(), 3);
   EXPECT_FALSE(q->sys().hasTwist());

@@ -1,0 +1,234 @@
+// Coupling of the rods that meet at a connection (Pérez et al. 2015, §3.2).
+//
+// The connection's rotation R is the rotation of the polar decomposition
+// A = R S of the best-fit linear map A from the incident edges' rest material
+// frames to their current ones (paper eq. 4):
+//
+//   A = argmin sum_i  a_i |t_i - A T_i|^2 + b_i (|n_i - A N_i|^2 + |m_i - A D_i|^2),
+//   a_i = tr(B_i) / sum_j tr(B_j),   b_i = beta_i / sum_j beta_j,
+//
+// with t the tangent, n the material normal (the r_n axis) and m the other
+// material director (the r_t axis). The paper fits tangents and normals only;
+// we add the third director with the normals' (twist) weight, which makes the
+// fit well posed for collinear edges (two rods meeting straight), where the
+// paper's system is singular; R is unchanged where both are defined and the
+// frames agree. Each incident edge i then couples, through bending and twist,
+// to a connection edge with frame R (T_i, D1_i, D2_i) over half its length:
+// the clamp energy (clamp.hh) with the held frame rotated by R. Summed over
+// the incident edges this reproduces an interior rod vertex exactly when two
+// rods meet straight.
+//
+// R is differentiated exactly to third order: R0 = polar(A) is computed in
+// double (SVD), then R = R0 Q(w) with Q the Cayley rotation, where w solves
+// axial(skew(Q(w)^T R0^T A)) = 0 (R^T A symmetric) by three chord-Newton
+// steps from w = 0 in the AD scalar. Each step multiplies the error by O(|dA|),
+// so the result agrees with the true polar factor to O(|dA|^4): its first,
+// second and third derivatives are exact.
+//
+// Local variables: x = e_i (3 each), theta_i (each, with twist); p = E_i (3
+// each), radii of the connection vertex (2), radii of each far vertex (2 each).
+#pragma once
+
+#include "model/energies/rod_math.hh"
+#include "model/stiffness.hh"
+
+#include <Eigen/Dense>
+
+namespace rodmesh::energies {
+
+constexpr int kMaxConnectionValence = 6;
+
+template <class S>
+struct M3 {
+  S a[3][3];
+  V3<S> col(int j) const { return {a[0][j], a[1][j], a[2][j]}; }
+};
+
+template <int K>
+struct ConnectionConst {
+  Eigen::Vector3d n[K];                   // reference normals of the incident edges
+  Eigen::Vector3d chartT[K], chartD[K];   // reference-frame charts of the incident edges
+  double youngModulus = 0.0, shearModulus = 0.0;
+  bool bend = true, twist = true;
+};
+
+template <class P, int K>
+struct ConnectionRest {
+  FrameT<P> F[K];                 // rest frames of the incident edges
+  P kIn[K], kOut[K], kTwist[K];   // coupling stiffnesses over half an edge
+  P wT[K], wN[K];                 // fit weights of tangents and of the two directors
+  M3<P> Minv;                     // (sum w Q Q^T)^-1
+};
+
+template <class P>
+M3<P> inverse3(const M3<P>& m) {
+  const auto& a = m.a;
+  M3<P> r;
+  r.a[0][0] = a[1][1] * a[2][2] - a[1][2] * a[2][1];
+  r.a[0][1] = a[0][2] * a[2][1] - a[0][1] * a[2][2];
+  r.a[0][2] = a[0][1] * a[1][2] - a[0][2] * a[1][1];
+  r.a[1][0] = a[1][2] * a[2][0] - a[1][0] * a[2][2];
+  r.a[1][1] = a[0][0] * a[2][2] - a[0][2] * a[2][0];
+  r.a[1][2] = a[0][2] * a[1][0] - a[0][0] * a[1][2];
+  r.a[2][0] = a[1][0] * a[2][1] - a[1][1] * a[2][0];
+  r.a[2][1] = a[0][1] * a[2][0] - a[0][0] * a[2][1];
+  r.a[2][2] = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+  const P det = a[0][0] * r.a[0][0] + a[0][1] * r.a[1][0] + a[0][2] * r.a[2][0];
+  const P inv = P(1.0) / det;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r.a[i][j] = r.a[i][j] * inv;
+  return r;
+}
+
+// radii: [connection vertex, far vertex of edge 0, ..., far vertex of edge K-1],
+// each [r_t, r_n]; the coupling of edge i uses the mean of its two ends.
+template <class P, int K>
+ConnectionRest<P, K> connectionRest(const V3<P>* E, const P* radii, const ConnectionConst<K>& c) {
+  ConnectionRest<P, K> r;
+  P sumA(0.0), sumB(0.0);
+  P trB[K], beta[K];
+  for (int i = 0; i < K; ++i) {
+    r.F[i] = restFrameOf(E[i], c.n[i]);
+    const P rt = P(0.5) * (radii[0] + radii[2 + 2 * i]);
+    const P rn = P(0.5) * (radii[1] + radii[3 + 2 * i]);
+    const P bin = stiffness::bendingIn(c.youngModulus, rt, rn), bout = stiffness::bendingOut(c.youngModulus, rt, rn);
+    const P tw = stiffness::twisting(c.shearModulus, rt, rn);
+    const P l = P(0.5) * norm(E[i]);
+    r.kIn[i] = bin / (P(4.0) * l);
+    r.kOut[i] = bout / (P(4.0) * l);
+    r.kTwist[i] = tw / (P(2.0) * l);
+    trB[i] = bin + bout;
+    beta[i] = tw;
+    sumA = sumA + trB[i];
+    sumB = sumB + beta[i];
+  }
+  M3<P> M;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) M.a[a][b] = P(0.0);
+  for (int i = 0; i < K; ++i) {
+    r.wT[i] = trB[i] / sumA;
+    r.wN[i] = beta[i] / sumB;
+    const FrameT<P>& F = r.F[i];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        M.a[a][b] = M.a[a][b] + r.wT[i] * F.t[a] * F.t[b] + r.wN[i] * (F.d1[a] * F.d1[b] + F.d2[a] * F.d2[b]);
+  }
+  r.Minv = inverse3(M);
+  return r;
+}
+
+// Rotation of the polar decomposition of a 3x3 matrix (det > 0 assumed; a
+// reflection is turned into the nearest rotation).
+inline Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& A) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU(), V = svd.matrixV();
+  if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);
+  return U * V.transpose();
+}
+
+// The exact rotation R(A) in the AD scalar (see the header comment).
+template <class S>
+M3<S> polarRotationAD(const M3<S>& A) {
+  Eigen::Matrix3d A0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) A0(i, j) = ad::value(A.a[i][j]);
+  const Eigen::Matrix3d R0 = polarRotation(A0);
+  // M = R0^T A.
+  M3<S> M;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) M.a[i][j] = A.a[0][j] * R0(0, i) + A.a[1][j] * R0(1, i) + A.a[2][j] * R0(2, i);
+  // J = dG/dw at w = 0: -1/2 (tr(Sym) I - Sym - [k]), Sym, [k] the symmetric
+  // and skew parts of M; its inverse is reused by the chord steps.
+  M3<S> J;
+  const S tr = M.a[0][0] + M.a[1][1] + M.a[2][2];
+  const S k0 = S(0.5) * (M.a[2][1] - M.a[1][2]), k1 = S(0.5) * (M.a[0][2] - M.a[2][0]), k2 = S(0.5) * (M.a[1][0] - M.a[0][1]);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) J.a[i][j] = S(0.25) * (M.a[i][j] + M.a[j][i]) - (i == j ? S(0.5) * tr : S(0.0));
+  // + 1/2 [k]
+  J.a[0][1] = J.a[0][1] - S(0.5) * k2;
+  J.a[0][2] = J.a[0][2] + S(0.5) * k1;
+  J.a[1][0] = J.a[1][0] + S(0.5) * k2;
+  J.a[1][2] = J.a[1][2] - S(0.5) * k0;
+  J.a[2][0] = J.a[2][0] - S(0.5) * k1;
+  J.a[2][1] = J.a[2][1] + S(0.5) * k0;
+  const M3<S> Jinv = inverse3(J);
+  V3<S> w(S(0.0), S(0.0), S(0.0));
+  M3<S> Q;
+  for (int step = 0; step < 4; ++step) {
+    // Cayley rotation with first-order term [w]: c = w / 2,
+    // Q = ((1 - c.c) I + 2 c c^T + 2 [c]) / (1 + c.c).
+    const V3<S> c = S(0.5) * w;
+    const S cc = dot(c, c);
+    const S inv = S(1.0) / (S(1.0) + cc);
+    const S diag = (S(1.0) - cc);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) Q.a[i][j] = (S(2.0) * c[i] * c[j] + (i == j ? diag : S(0.0)));
+    Q.a[0][1] = Q.a[0][1] - S(2.0) * c.z;
+    Q.a[0][2] = Q.a[0][2] + S(2.0) * c.y;
+    Q.a[1][0] = Q.a[1][0] + S(2.0) * c.z;
+    Q.a[1][2] = Q.a[1][2] - S(2.0) * c.x;
+    Q.a[2][0] = Q.a[2][0] - S(2.0) * c.y;
+    Q.a[2][1] = Q.a[2][1] + S(2.0) * c.x;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) Q.a[i][j] = Q.a[i][j] * inv;
+    if (step == 3) break;
+    // G = axial(skew(Q^T M)).
+    M3<S> QM;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) QM.a[i][j] = Q.a[0][i] * M.a[0][j] + Q.a[1][i] * M.a[1][j] + Q.a[2][i] * M.a[2][j];
+    const V3<S> G(S(0.5) * (QM.a[2][1] - QM.a[1][2]), S(0.5) * (QM.a[0][2] - QM.a[2][0]),
+                  S(0.5) * (QM.a[1][0] - QM.a[0][1]));
+    for (int i = 0; i < 3; ++i) w[i] = w[i] - (Jinv.a[i][0] * G.x + Jinv.a[i][1] * G.y + Jinv.a[i][2] * G.z);
+  }
+  M3<S> R;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) R.a[i][j] = Q.a[0][j] * R0(i, 0) + Q.a[1][j] * R0(i, 1) + Q.a[2][j] * R0(i, 2);
+  return R;
+}
+
+template <class S, class P>
+V3<S> rotate(const M3<S>& R, const V3<P>& v) {
+  return {R.a[0][0] * v.x + R.a[0][1] * v.y + R.a[0][2] * v.z, R.a[1][0] * v.x + R.a[1][1] * v.y + R.a[1][2] * v.z,
+          R.a[2][0] * v.x + R.a[2][1] * v.y + R.a[2][2] * v.z};
+}
+
+template <class S, class P, int K>
+S connectionEnergy(const V3<S>* e, const S* th, const ConnectionRest<P, K>& r, const ConnectionConst<K>& c) {
+  V3<S> t[K], u[K], m1[K], m2[K];
+  M3<S> A;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) A.a[a][b] = S(0.0);
+  // B = sum_i wT t T^T + wN (m1 D1^T + m2 D2^T); A = B Minv.
+  M3<S> B = A;
+  for (int i = 0; i < K; ++i) {
+    t[i] = normalized(e[i]);
+    u[i] = transportFromRest(V3<double>(c.chartT[i]), t[i], V3<double>(c.chartD[i]));
+    materialDirectors(t[i], u[i], th[i], m1[i], m2[i]);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        B.a[a][b] = B.a[a][b] + (t[i][a] * r.F[i].t[b]) * r.wT[i] +
+                    (m1[i][a] * r.F[i].d1[b] + m2[i][a] * r.F[i].d2[b]) * r.wN[i];
+  }
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      A.a[a][b] = B.a[a][0] * r.Minv.a[0][b] + B.a[a][1] * r.Minv.a[1][b] + B.a[a][2] * r.Minv.a[2][b];
+  const M3<S> R = polarRotationAD(A);
+
+  S energy(0.0);
+  for (int i = 0; i < K; ++i) {
+    const V3<S> tb = rotate(R, r.F[i].t), d1b = rotate(R, r.F[i].d1), d2b = rotate(R, r.F[i].d2);
+    if (c.bend) {
+      const V3<S> kb = curvatureBinormal(tb, t[i]);
+      const S wf1 = dot(kb, d2b), wf2 = dot(kb, d1b);
+      const S we1 = dot(kb, m2[i]), we2 = dot(kb, m1[i]);
+      energy = energy + (wf1 * wf1 + we1 * we1) * r.kIn[i] + (wf2 * wf2 + we2 * we2) * r.kOut[i];
+    }
+    if (c.twist) {
+      const S tau = th[i] + signedAngle(parallelTransport(tb, t[i], d1b), u[i], t[i]);
+      energy = energy + tau * tau * r.kTwist[i];
+    }
+  }
+  return energy;
+}
+
+}  // namespace rodmesh::energies
