@@ -7,6 +7,9 @@
 #include "model/energies/stretch.hh"
 
 #include <algorithm>
+#include <exception>
+#include <functional>
+#include <pthread.h>
 #include <limits>
 #include <stdexcept>
 #include <type_traits>
@@ -923,15 +926,61 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
     }
 }
 
+namespace {
+// Joint derivatives of large stencils (a six-valent connection has 56 local
+// variables: a Hessian scalar of 26 kB, and the kernel keeps hundreds of
+// them) need more stack than a default thread has: run on a thread with a
+// 1 GiB stack reservation (virtual; only what is touched is committed).
+void runWithLargeStack(const std::function<void()>& fn) {
+  pthread_attr_t attr;
+  pthread_attr_init(&attr);
+  pthread_attr_setstacksize(&attr, std::size_t(1) << 30);
+  struct Payload {
+    const std::function<void()>* fn;
+    std::exception_ptr error;
+  } payload{&fn, nullptr};
+  auto trampoline = [](void* arg) -> void* {
+    auto* p = static_cast<Payload*>(arg);
+    try {
+      (*p->fn)();
+    } catch (...) {
+      p->error = std::current_exception();
+    }
+    return nullptr;
+  };
+  pthread_t thread;
+  if (pthread_create(&thread, &attr, trampoline, &payload) != 0) {
+    pthread_attr_destroy(&attr);
+    fn();  // fall back to the current thread
+    return;
+  }
+  pthread_join(thread, nullptr);
+  pthread_attr_destroy(&attr);
+  if (payload.error) std::rethrow_exception(payload.error);
+}
+}  // namespace
+
 JointDerivatives PoseSystem::joint(const Eigen::VectorXd& u, const Design& d) const {
   JointDerivatives out;
   out.gu.setZero(nDofs_);
   out.gp.setZero(d.numParameters());
+  runWithLargeStack([&] { jointImpl(u, d, nullptr, out); });
+  return out;
+}
+
+void PoseSystem::jointImpl(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v,
+                           JointDerivatives& out) const {
+  if (v) {
+    if (D_ == 3 && twist_) runJoint<3, true, ad::Dual>(u, d, v, out);
+    else if (D_ == 3) runJoint<3, false, ad::Dual>(u, d, v, out);
+    else if (twist_) runJoint<2, true, ad::Dual>(u, d, v, out);
+    else runJoint<2, false, ad::Dual>(u, d, v, out);
+    return;
+  }
   if (D_ == 3 && twist_) runJoint<3, true, double>(u, d, nullptr, out);
   else if (D_ == 3) runJoint<3, false, double>(u, d, nullptr, out);
   else if (twist_) runJoint<2, true, double>(u, d, nullptr, out);
   else runJoint<2, false, double>(u, d, nullptr, out);
-  return out;
 }
 
 JointDerivatives PoseSystem::jointDirectional(const Eigen::VectorXd& u, const Design& d,
@@ -939,10 +988,7 @@ JointDerivatives PoseSystem::jointDirectional(const Eigen::VectorXd& u, const De
   JointDerivatives out;
   out.gu.setZero(nDofs_);
   out.gp.setZero(d.numParameters());
-  if (D_ == 3 && twist_) runJoint<3, true, ad::Dual>(u, d, &v, out);
-  else if (D_ == 3) runJoint<3, false, ad::Dual>(u, d, &v, out);
-  else if (twist_) runJoint<2, true, ad::Dual>(u, d, &v, out);
-  else runJoint<2, false, ad::Dual>(u, d, &v, out);
+  runWithLargeStack([&] { jointImpl(u, d, &v, out); });
   return out;
 }
 

@@ -155,6 +155,7 @@ class PoseSystem {
   void visitConnection(const ConnSt& s, const Ctx& ctx, Visit& visit, int sidx) const;
   template <int D, bool TW, class Out>
   void runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const;
+  void jointImpl(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v, JointDerivatives& out) const;
   template <int D, bool TW, class T>
   void runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v, JointDerivatives& out) const;
 
