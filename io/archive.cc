@@ -213,6 +213,7 @@ void writeArchive(const Archive& a, const std::string& path) {
           if (!p.status.empty()) writeStringAttr(g, "status", p.status);
           writeScalarAttr<long long>(g, "iterations", p.iterations, H5T_NATIVE_LLONG);
           writeScalarAttr<double>(g, "time_s", p.timeSeconds, H5T_NATIVE_DOUBLE);
+          if (p.outOfPlaneStable >= 0) writeScalarAttr<int>(g, "out_of_plane_stable", p.outOfPlaneStable, H5T_NATIVE_INT);
         }
       }
       if (!a.frames.empty()) {
@@ -297,6 +298,7 @@ Archive readArchive(const std::string& path) {
       p.status = readStringAttr(g, "status", path);
       p.iterations = (int)readScalarAttr<long long>(g, "iterations", H5T_NATIVE_LLONG).value_or(0);
       p.timeSeconds = readScalarAttr<double>(g, "time_s", H5T_NATIVE_DOUBLE).value_or(0.0);
+      p.outOfPlaneStable = readScalarAttr<int>(g, "out_of_plane_stable", H5T_NATIVE_INT).value_or(-1);
       a.poses.push_back(std::move(p));
     }
   }

@@ -43,6 +43,7 @@ struct ArchivePose {
   std::string status;  // extension: converged / not_converged / failed
   int iterations = 0;
   double timeSeconds = 0.0;
+  int outOfPlaneStable = -1;  // extension: 1/0 for planar solves, -1 unknown (not written)
 };
 
 struct ArchiveFrames {

@@ -1,5 +1,7 @@
 #include "solver/equilibrium.hh"
 
+#include <Eigen/SparseCholesky>
+
 #include <cmath>
 
 namespace rodmesh {
@@ -13,6 +15,23 @@ double rmsError(const std::vector<Vec3>& x, const std::vector<Vec3>& target) {
   double s = 0.0;
   for (std::size_t i = 0; i < x.size(); ++i) s += (x[i] - target[i]).squaredNorm();
   return x.empty() ? 0.0 : std::sqrt(s / static_cast<double>(x.size()));
+}
+
+bool outOfPlaneStable(const Scene& scene, const RodNetwork& network, const EffectSet& planarEffects, int pose,
+                      const Design& design, const std::vector<Vec3>& positions) {
+  EffectSet full = planarEffects;
+  full.planar = false;
+  full.on[static_cast<int>(Effect::Twist)] = true;
+  PoseSystem sys(scene, network, full, pose);
+  const Eigen::VectorXd u = sys.dofsFrom(positions, Eigen::VectorXd::Zero(network.numEdges()));
+  double e;
+  Eigen::VectorXd g;
+  sys.evaluate(u, design, e, g, true);
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(sys.hessian());
+  if (ldlt.info() != Eigen::Success) return true;  // cannot tell; do not cry wolf
+  const Eigen::VectorXd D = ldlt.vectorD();
+  const double tol = 1e-8 * D.cwiseAbs().maxCoeff();
+  return (D.array() >= -tol).all();
 }
 
 SimulationResult simulateAll(SceneModel& model, const Design& design, const NewtonOptions& options,
@@ -29,6 +48,8 @@ SimulationResult simulateAll(SceneModel& model, const Design& design, const Newt
     r.twist = sys.materialTwists(r.dofs);
     const auto& target = model.scene().poses[p].target;
     if (!target.empty()) r.rmsError = rmsError(r.positions, target);
+    if (model.effects().planar && r.report.converged)
+      r.outOfPlaneStable = outOfPlaneStable(model.scene(), model.network(), model.effects(), p, design, r.positions);
     out.allConverged = out.allConverged && r.report.converged;
     if (progress) progress(p, r);
     out.poses.push_back(std::move(r));

@@ -21,6 +21,9 @@ struct PoseResult {
   Eigen::VectorXd dofs;
   NewtonReport report;
   std::optional<double> rmsError;  // m, when the pose has a target
+  // Planar solves only: whether the in-plane equilibrium is also stable
+  // against out-of-plane motion and twist in the full 3D model.
+  std::optional<bool> outOfPlaneStable;
 };
 
 struct SimulationResult {
@@ -51,6 +54,12 @@ using PoseProgress = std::function<void(int pose, const PoseResult&)>;
 // Solves every pose from its rest configuration under the given design.
 SimulationResult simulateAll(SceneModel& model, const Design& design, const NewtonOptions& options,
                              const PoseProgress& progress = {});
+
+// For a pose solved with in-plane unknowns: is the equilibrium stable in the
+// full 3D model (out-of-plane motion and twist)? False means it is a saddle,
+// e.g. beyond lateral-torsional buckling; solve with twist to find the 3D state.
+bool outOfPlaneStable(const Scene& scene, const RodNetwork& network, const EffectSet& planarEffects, int pose,
+                      const Design& design, const std::vector<Vec3>& positions);
 
 // RMS distance to the target over the given positions (m).
 double rmsError(const std::vector<Vec3>& x, const std::vector<Vec3>& target);
