@@ -173,7 +173,7 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app->add_option("--pull", o->pulls,
                   "--grid: add a pose pull_SIDE in which the total force FX FY FZ [N] is shared equally by the "
-                  "free vertices of SIDE (repeatable; without it, one pose 'rest')")
+                  "connections on SIDE that are not fixed (repeatable; without it, one pose 'rest')")
       ->expected(4)
       ->type_name("SIDE FX FY FZ")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);

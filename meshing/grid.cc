@@ -310,9 +310,9 @@ GridResult makeGridSheet(const GridOptions& o) {
     p.fixed = fixed;
     std::vector<int> loaded;
     for (int v : sideVertices(sc, pull.side, tol))
-      if (!held[v]) loaded.push_back(v);
+      if (v < C && !held[v]) loaded.push_back(v);  // connections only (numbered first)
     if (loaded.empty())
-      throw InputError(std::string("--pull ") + gridSideName(pull.side) + ": every vertex of that side is fixed");
+      throw InputError(std::string("--pull ") + gridSideName(pull.side) + ": every connection on that side is fixed");
     for (int v : loaded) p.forces.push_back(PointForce{v, pull.force / static_cast<double>(loaded.size())});
     r.pulledVertices.push_back({p.name, static_cast<int>(loaded.size())});
     sc.poses.push_back(std::move(p));

@@ -51,7 +51,9 @@ enum class HexRows { Alternate, Offset };
 // on it (within a tolerance of 1e-6 x the shortest rod edge).
 enum class GridSide { Left, Right, Bottom, Top };
 
-// A pull: a total force [N] shared equally by the vertices of a side.
+// A pull: a total force [N] shared equally by the connections on a side that
+// are not held. Rod interiors are not loaded, so a pull does not bend the
+// boundary rods sideways (it acts where a wire would be tied).
 struct SidePull {
   GridSide side = GridSide::Right;
   Vec3 force = Vec3::Zero();
