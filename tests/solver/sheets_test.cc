@@ -152,10 +152,10 @@ class PaperFig4 : public ::testing::Test {
     tri_ = respond({GridKind::Tri, 3, 4});
     for (auto [name, r] : {std::pair{"hex", &hex_}, {"quad", &quad_}, {"tri", &tri_}})
       std::printf(
-          "[ sheets   ] %-4s %2d cells, %3d vertices, %.0f x %.0f mm: stretch %.2e, side shear %.2e, hanging drop "
-          "%.2e sway %.2e (strains; x %.0f mm for mm), solves %.0f ms\n",
-          name, r->cells, r->vertices, 1e3 * r->width, 1e3 * r->height, r->stretch, r->shear, r->drop, r->sway,
-          1e3 * r->width, 1e3 * r->seconds);
+          "[ sheets   ] %-4s %2d cells, %3d vertices, %.0f x %.0f mm: pull %.3f mm (strain %.2e), side shear %.2f mm, "
+          "hanging drop %.2f mm, sway %.2f mm; solves %.0f ms\n",
+          name, r->cells, r->vertices, 1e3 * r->width, 1e3 * r->height, 1e3 * r->stretch * r->width, r->stretch,
+          1e3 * r->shear * r->width, 1e3 * r->drop * r->height, 1e3 * r->sway * r->height, 1e3 * r->seconds);
   }
   static Response hex_, quad_, tri_;
 };
