@@ -260,8 +260,10 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
       break;
     }
     if (debug)
-      std::fprintf(stderr, "it %3d  E %.12e  res %.3e  neg %d  tau %.1e  alpha %.3e  |d| %.3e\n", it, E,
-                   rep.relativeResidual, negative, tau, alpha, d.norm());
+      std::fprintf(stderr, "it %3d  E %.12e  res %.3e  neg %d  tau %.1e  alpha %.3e  |d| %.3e  |dx| %.3e |dth| %.3e\n",
+                   it, E, rep.relativeResidual, negative, tau, alpha, d.norm(),
+                   d.head(system.numVertexDofs()).lpNorm<Eigen::Infinity>(),
+                   d.tail(n - system.numVertexDofs()).lpNorm<Eigen::Infinity>());
     u = uTrial;
     E = Etrial;
     g = gTrial;
