@@ -1,0 +1,151 @@
+// Dynamics of one pose: backward Euler with Newton's method and adaptive time
+// steps (the paper's dynamic simulation, §5 "Simulation Performance", after
+// Bergou et al. 2010).
+//
+// Unknowns u are those of PoseSystem (free vertex positions [m], then one
+// twist angle per edge [rad]); velocities v have the same layout [m/s], and
+// their twist entries are always zero: the material frames are massless and
+// follow the centreline quasi-statically (Bergou 2010, §4.1).
+//
+// One step of size h from (u_n, v_n) minimises the incremental potential
+//   Phi(u) = 1/(2 h^2) (u - u_pred)^T M (u - u_pred) + E(u),  u_pred = u_n + h v_n,
+// with M the lumped mass on the position unknowns (solver/mass.hh) and zero on
+// the twists; then v_{n+1} = (u_{n+1} - u_n) / h on the positions. grad Phi = 0
+// is exactly backward Euler: M (v_{n+1} - v_n) / h = -grad E(u_{n+1}). For a
+// convex energy the total energy (kinetic + potential) never increases.
+//
+// Held (fixed, clamped) vertices are not unknowns: they sit at their
+// prescribed positions, reached at time loadRampTime if that is positive (the
+// loads ramp with them), at once otherwise.
+//
+// Adaptive steps: a step is rejected and retried at half the size when Newton
+// does not converge within maxNewtonIterations, when it finds no descent
+// direction, or when the step changes too much: a vertex moves more than
+// maxDisplacement mean edge lengths away from the prediction u_n + h v_n (the
+// local error of backward Euler is half that deviation) or a twist angle
+// changes by more than maxTwistChange. After an easy step (at most
+// easyIterations Newton iterations and well inside those limits) the step
+// grows by growFactor, up to maxStep. Below minStep the integrator stops,
+// keeps the last accepted state (never NaN) and says why.
+#pragma once
+
+#include "model/pose_system.hh"
+
+#include <Eigen/Core>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace rodmesh {
+
+struct DynamicsOptions {
+  double initialStep = 1e-3;     // s, first step tried
+  double maxStep = 1e-2;         // s, largest step
+  double minStep = 1e-9;         // s, the integrator gives up below this step
+  double growFactor = 1.5;       // step growth after an easy step
+  double shrinkFactor = 0.5;     // step reduction after a rejected step
+  int easyIterations = 4;        // Newton iterations at or below which a step is easy
+  int maxNewtonIterations = 15;  // per step; a step needing more is rejected
+  double tolerance = 1e-8;       // |grad Phi| <= tolerance * max(load scale, |grad Phi| at the step's start)
+  double maxDisplacement = 0.25;  // per step, in mean rest edge lengths, from the prediction u_n + h v_n
+  double maxTwistChange = 0.5;   // rad per step
+  double loadRampTime = 0.0;     // s; loads and held displacements grow linearly to 1 over this time (0: at once)
+  double armijo = 1e-4;          // sufficient-decrease constant of the line search
+  int maxBacktracks = 30;        // step halvings of the line search
+  std::string isValid() const;   // empty if valid, else what is wrong
+};
+
+struct DynamicsReport {
+  bool ok = true;                 // false: a step fell below minStep (state is the last accepted one)
+  int steps = 0;                  // accepted time steps
+  int rejectedSteps = 0;
+  int newtonIterations = 0;       // over all steps, rejected ones included
+  int factorizations = 0;
+  int chartUpdates = 0;           // steps after which reference-frame charts moved
+  double time = 0.0;              // simulated time reached [s]
+  double minStepTaken = 0.0;      // smallest and largest accepted step [s]
+  double maxStepTaken = 0.0;
+  double lastResidual = 0.0;      // |grad Phi| at the end of the last accepted step [N]
+  double loadScale = 0.0;         // N, as in Newton (full load)
+  double wallSeconds = 0.0;
+  double assemblySeconds = 0.0, factorSeconds = 0.0;
+  std::string message;            // why it stopped, when it did
+};
+
+// Backward Euler integrator for one pose. The PoseSystem's reference-frame
+// charts must be those of the state given to setState (resetCharts for a rest
+// state); the integrator re-anchors them after every accepted step.
+class BackwardEuler {
+ public:
+  // dofMass: mass per unknown (solver/mass.hh dofMasses), zero on twists.
+  BackwardEuler(PoseSystem& system, const Design& design, Eigen::VectorXd dofMass, const DynamicsOptions& options);
+
+  // Starts from unknowns u and velocities v (twist entries of v are ignored)
+  // at time t.
+  void setState(const Eigen::VectorXd& u, const Eigen::VectorXd& v, double t = 0.0);
+  const Eigen::VectorXd& dofs() const { return u_; }
+  const Eigen::VectorXd& velocities() const { return v_; }
+  double time() const { return t_; }
+  double nextStep() const { return h_; }
+
+  // Advances to time t (>= time()) with adaptive steps, the last one
+  // shortened to land on t. Returns false if a step fell below minStep; the
+  // state is then the last accepted one and report().message says why.
+  bool advanceTo(double t);
+
+  double kineticEnergy() const;    // 1/2 v^T M v [J]
+  double potentialEnergy() const;  // E(u) at the current load factor [J]
+  double loadFactorAt(double t) const;
+  const DynamicsReport& report() const { return rep_; }
+
+ private:
+  struct Trial {
+    Eigen::VectorXd u;
+    int iterations = 0;
+    double residual = 0.0;
+    double deviation = 0.0;  // max vertex distance from the prediction, in mean edge lengths
+    double twistChange = 0.0;
+    std::string failure;  // empty when Newton converged
+  };
+  Trial solveStep(double h);
+  void assemble(double invH2);
+
+  PoseSystem& sys_;
+  const Design& design_;
+  Eigen::VectorXd mass_;
+  DynamicsOptions opt_;
+  DynamicsReport rep_;
+  Eigen::VectorXd u_, v_;
+  double t_ = 0.0, h_ = 0.0;
+  double floorForce_ = 0.0;
+
+  // Newton matrix: Hessian of E plus M / h^2 on the diagonal (lower triangle);
+  // its pattern is the Hessian's plus the diagonal, built once.
+  Eigen::SparseMatrix<double> A_;
+  std::vector<int> hessToA_, diagA_;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_;
+  bool analysed_ = false;
+};
+
+// Frames of a dynamic run: positions of every vertex at each frame time.
+struct DynamicFrames {
+  std::vector<double> time;                    // s
+  std::vector<std::vector<Vec3>> positions;    // one V-list per frame
+  Eigen::VectorXd finalDofs;                   // unknowns at the last frame
+};
+
+// Called after each stored frame (frame index, its time, the report so far).
+using FrameProgress = std::function<void(int frame, double time, const DynamicsReport&)>;
+
+// Simulates one pose from rest (zero velocity, rest charts) for `duration`
+// seconds and stores a frame every 1/fps s starting at t = 0; the last frame
+// is at t = duration. Vertex masses from lumpedVertexMasses. The load factor is
+// left at 1 on return.
+DynamicsReport simulateDynamics(PoseSystem& system, const Design& design, const std::vector<double>& vertexMasses,
+                                const DynamicsOptions& options, double duration, double fps, DynamicFrames& frames,
+                                const FrameProgress& progress = {});
+
+}  // namespace rodmesh
