@@ -1,8 +1,11 @@
 #include "solver/equilibrium.hh"
 
+#include "model/stiffness.hh"
+
 #include <Eigen/SparseCholesky>
 
 #include <cmath>
+#include <cstdio>
 
 namespace rodmesh {
 
@@ -15,6 +18,35 @@ double rmsError(const std::vector<Vec3>& x, const std::vector<Vec3>& target) {
   double s = 0.0;
   for (std::size_t i = 0; i < x.size(); ++i) s += (x[i] - target[i]).squaredNorm();
   return x.empty() ? 0.0 : std::sqrt(s / static_cast<double>(x.size()));
+}
+
+std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const EffectSet& effects, int pose,
+                            const Design& design) {
+  const Pose& p = scene.poses[pose];
+  if (!p.fixed.empty() || !p.clamped.empty()) return "";
+  Vec3 total = Vec3::Zero();
+  double magnitude = 0.0;
+  for (const PointForce& f : p.forces) {
+    total += f.force;
+    magnitude += f.force.norm();
+  }
+  if (effects.has(Effect::Gravity)) {
+    double mass = 0.0;
+    for (const Edge& e : network.edges()) {
+      const double L = (design.restPositions[e.b] - design.restPositions[e.a]).norm();
+      mass += 0.5 * L * (stiffness::massPerLength(scene.material.density, design.radii[e.a][0], design.radii[e.a][1]) +
+                         stiffness::massPerLength(scene.material.density, design.radii[e.b][0], design.radii[e.b][1]));
+    }
+    total += mass * *scene.gravity;
+    magnitude += mass * scene.gravity->norm();
+  }
+  if (total.norm() <= 1e-9 * magnitude) return "";
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "pose '%s' has no fixed or clamped vertex and its loads do not balance (net force %.3e N): there is no "
+                "static equilibrium; hold at least one vertex",
+                p.name.c_str(), total.norm());
+  return buf;
 }
 
 bool outOfPlaneStable(const Scene& scene, const RodNetwork& network, const EffectSet& planarEffects, int pose,
@@ -43,7 +75,15 @@ SimulationResult simulateAll(SceneModel& model, const Design& design, const Newt
     PoseResult r;
     r.name = model.scene().poses[p].name;
     r.dofs = sys.restDofs(design);
-    r.report = solveEquilibrium(sys, design, r.dofs, options);
+    const std::string unsupported = unsupportedLoad(model.scene(), model.network(), model.effects(), p, design);
+    if (!unsupported.empty()) {
+      r.report.converged = false;
+      r.report.message = unsupported;
+      r.report.loadScale = r.report.residualNorm = loadScale(sys, design);
+      r.report.relativeResidual = 1.0;
+    } else {
+      r.report = solveEquilibrium(sys, design, r.dofs, options);
+    }
     r.positions = sys.positions(r.dofs);
     r.twist = sys.materialTwists(r.dofs);
     const auto& target = model.scene().poses[p].target;

@@ -55,6 +55,11 @@ using PoseProgress = std::function<void(int pose, const PoseResult&)>;
 SimulationResult simulateAll(SceneModel& model, const Design& design, const NewtonOptions& options,
                              const PoseProgress& progress = {});
 
+// Empty if the pose's loads can be in equilibrium; otherwise why not (no
+// held vertex and a non-zero net force).
+std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const EffectSet& effects, int pose,
+                            const Design& design);
+
 // For a pose solved with in-plane unknowns: is the equilibrium stable in the
 // full 3D model (out-of-plane motion and twist)? False means it is a saddle,
 // e.g. beyond lateral-torsional buckling; solve with twist to find the 3D state.

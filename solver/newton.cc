@@ -214,8 +214,9 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     }
     // A pure Newton correction below the round-off of the unknowns cannot
     // improve the solution: the residual is at the round-off level of the
-    // internal forces (stiff stretching against light loads).
-    if (negative == 0 && tau == 0.0 &&
+    // internal forces (stiff stretching against light loads). Only credible
+    // when the residual is already small (not, say, for a body drifting away).
+    if (negative == 0 && singular == 0 && tau == 0.0 && res <= std::sqrt(tolerance) * scale &&
         d.lpNorm<Eigen::Infinity>() <= 1e3 * eps * u.lpNorm<Eigen::Infinity>()) {
       rep.converged = true;
       rep.roundoff = true;
@@ -356,6 +357,19 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
          << r.message << ")";
       r.message = os.str();
       r.converged = false;
+    }
+  }
+  // The final verdict is judged at the full load, whatever the last step said.
+  system.setLoadFactor(1.0);
+  {
+    Eigen::VectorXd gFinal;
+    double eFinal;
+    system.evaluate(u, design, eFinal, gFinal, false);
+    const double resFinal = system.forceResidual(gFinal).norm();
+    if (r.converged && !(resFinal <= std::max(1e3 * opt.tolerance, std::sqrt(opt.tolerance)) * scale ||
+                         resFinal <= system.roundoffForce(design))) {
+      r.converged = false;
+      r.message = "the final state does not satisfy equilibrium at the full load (" + r.message + ")";
     }
   }
   total.converged = r.converged;
