@@ -16,6 +16,7 @@
 
 #include <array>
 #include <cmath>
+#include <type_traits>
 
 namespace rodmesh::ad {
 
@@ -203,6 +204,27 @@ inline Hess<N, T> atan2(const Hess<N, T>& y, const Hess<N, T>& x) {
 
 template <int N, class T>
 inline double value(const Hess<N, T>& a) { return value(a.v); }
+
+// Embeds a scalar differentiated over M variables into one over N >= M
+// variables: variable i becomes variable slots[i].
+template <int N, int M, class T>
+inline Hess<N, T> lift(const Hess<M, T>& a, const int* slots) {
+  static_assert(M <= N, "lift to a smaller variable set");
+  Hess<N, T> r;
+  r.v = a.v;
+  for (int i = 0; i < M; ++i) {
+    r.g[slots[i]] = a.g[i];
+    for (int j = 0; j <= i; ++j) r.h[Hess<N, T>::hidx(slots[i], slots[j])] = a.h[Hess<M, T>::hidx(i, j)];
+  }
+  return r;
+}
+
+template <class S>
+struct IsHessDouble : std::false_type {};
+template <int N>
+struct IsHessDouble<Hess<N, double>> : std::true_type {
+  static constexpr int n = N;
+};
 
 // Comparisons look at values only (branches must not depend on derivatives).
 template <int N, class T>

@@ -568,12 +568,41 @@ struct BendK {
   const Mat32* B;
   template <class S, class P>
   S operator()(const S* x, const P* p) const {
-    const V3<S> e0 = embed<D>(x, off0, *B);
-    const V3<S> e1 = embed<D>(x + D, off1, *B);
     const S th0 = TW ? x[2 * D] : S(0.0);
     const S th1 = TW ? x[2 * D + 1] : S(0.0);
     const auto rest = energies::bendTwistRest(V3<P>(p[0], p[1], p[2]), V3<P>(p[3], p[4], p[5]), p[6], p[7], k);
-    return energies::bendTwistEnergy(e0, e1, th0, th1, rest, k);
+    if constexpr (ad::IsHessDouble<S>::value && std::is_same_v<P, double>) {
+      // Simulation: each edge's frame depends on its own D + 1 variables;
+      // differentiate it over those and lift into the stencil's variables.
+      constexpr int M = D + (TW ? 1 : 0);
+      const int slots0[4] = {0, 1, D == 3 ? 2 : 2 * D, 2 * D};
+      const int slots1[4] = {D, D + 1, D == 3 ? D + 2 : 2 * D + 1, 2 * D + 1};
+      const energies::EdgeState<S> a = edgeStateLifted<S, M>(x, 0, TW ? 2 * D : -1, off0, k.chartT0, k.chartD0, slots0);
+      const energies::EdgeState<S> b = edgeStateLifted<S, M>(x, D, TW ? 2 * D + 1 : -1, off1, k.chartT1, k.chartD1, slots1);
+      return energies::bendTwistFromStates(a, b, th0, th1, rest, k);
+    } else {
+      const V3<S> e0 = embed<D>(x, off0, *B);
+      const V3<S> e1 = embed<D>(x + D, off1, *B);
+      return energies::bendTwistEnergy(e0, e1, th0, th1, rest, k);
+    }
+  }
+
+  // The state of one edge from its D position variables (at x[first]) and
+  // its twist (x[theta], or none), differentiated over M = D (+1) variables
+  // and lifted to the stencil's variable slots.
+  template <class S, int M>
+  energies::EdgeState<S> edgeStateLifted(const S* x, int first, int theta, const Vec3& off, const Vec3& chartT,
+                                         const Vec3& chartD, const int* slots) const {
+    using Hm = ad::Hess<M, double>;
+    constexpr int N = ad::IsHessDouble<S>::n;
+    Hm w[3];
+    for (int i = 0; i < D; ++i) w[i] = Hm::variable(x[first + i].v, i);
+    const Hm th = theta >= 0 ? Hm::variable(x[theta].v, D) : Hm(0.0);
+    const energies::EdgeState<Hm> st = energies::edgeState(embed<D>(w, off, *B), th, chartT, chartD);
+    auto liftV = [&](const V3<Hm>& v) {
+      return V3<S>(ad::lift<N, M>(v.x, slots), ad::lift<N, M>(v.y, slots), ad::lift<N, M>(v.z, slots));
+    };
+    return {liftV(st.t), liftV(st.u), liftV(st.m1), liftV(st.m2)};
   }
 };
 template <int D, bool TW>

@@ -61,28 +61,47 @@ BendTwistRest<P> bendTwistRest(const V3<P>& E0, const V3<P>& E1, const P& rt, co
   return r;
 }
 
+// The current frame of one edge: tangent, reference director, material
+// directors. Depends on that edge's vector and twist only, so simulation can
+// differentiate it over those 4 variables and lift the result (see
+// PoseSystem), which is much cheaper than differentiating over the stencil's 8.
+template <class S>
+struct EdgeState {
+  V3<S> t, u, m1, m2;
+};
+
+template <class S>
+EdgeState<S> edgeState(const V3<S>& e, const S& th, const Eigen::Vector3d& chartT, const Eigen::Vector3d& chartD) {
+  EdgeState<S> f;
+  f.t = normalized(e);
+  f.u = transportFromRest(V3<double>(chartT), f.t, V3<double>(chartD));
+  materialDirectors(f.t, f.u, th, f.m1, f.m2);
+  return f;
+}
+
 template <class S, class P>
-S bendTwistEnergy(const V3<S>& e0, const V3<S>& e1, const S& th0, const S& th1, const BendTwistRest<P>& r,
-                  const BendTwistConst& c) {
-  const V3<S> t0 = normalized(e0), t1 = normalized(e1);
-  const V3<S> u0 = transportFromRest(V3<double>(c.chartT0), t0, V3<double>(c.chartD0));
-  const V3<S> u1 = transportFromRest(V3<double>(c.chartT1), t1, V3<double>(c.chartD1));
+S bendTwistFromStates(const EdgeState<S>& a, const EdgeState<S>& b, const S& th0, const S& th1,
+                      const BendTwistRest<P>& r, const BendTwistConst& c) {
   S energy(0.0);
   if (c.bend) {
-    V3<S> m1a, m2a, m1b, m2b;
-    materialDirectors(t0, u0, th0, m1a, m2a);
-    materialDirectors(t1, u1, th1, m1b, m2b);
-    const V3<S> kb = curvatureBinormal(t0, t1);
-    const S wa1 = dot(kb, m2a) - r.wa1, wa2 = dot(kb, m1a) - r.wa2;
-    const S wb1 = dot(kb, m2b) - r.wb1, wb2 = dot(kb, m1b) - r.wb2;
+    const V3<S> kb = curvatureBinormal(a.t, b.t);
+    const S wa1 = dot(kb, a.m2) - r.wa1, wa2 = dot(kb, a.m1) - r.wa2;
+    const S wb1 = dot(kb, b.m2) - r.wb1, wb2 = dot(kb, b.m1) - r.wb2;
     energy = (wa1 * wa1 + wb1 * wb1) * r.kIn + (wa2 * wa2 + wb2 * wb2) * r.kOut;
   }
   if (c.twist) {
-    const S psi = signedAngle(parallelTransport(t0, t1, u0), u1, t1);
+    const S psi = signedAngle(parallelTransport(a.t, b.t, a.u), b.u, b.t);
     const S tau = th1 - th0 + wrapAngle(psi - r.psiRest);
     energy = energy + tau * tau * r.kTwist;
   }
   return energy;
+}
+
+template <class S, class P>
+S bendTwistEnergy(const V3<S>& e0, const V3<S>& e1, const S& th0, const S& th1, const BendTwistRest<P>& r,
+                  const BendTwistConst& c) {
+  return bendTwistFromStates(edgeState(e0, th0, c.chartT0, c.chartD0), edgeState(e1, th1, c.chartT1, c.chartD1), th0,
+                             th1, r, c);
 }
 
 }  // namespace rodmesh::energies
