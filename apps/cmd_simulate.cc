@@ -1,8 +1,16 @@
-// rodmesh simulate SCENE.json -o OUT.h5: static equilibrium of every pose.
+// rodmesh simulate SCENE.json -o OUT.h5: static equilibrium of every pose
+// (Newton, or dynamic relaxation with --static-solver relaxation), or with
+// --dynamic --duration T [--fps F] a backward-Euler dynamic simulation of
+// every pose from rest, stored as frames (/frames/NAME/positions T x V x 3,
+// /frames/NAME/time) with the last frame also in /poses/NAME/positions.
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
+#include "solver/dynamics.hh"
 #include "solver/equilibrium.hh"
+#include "solver/mass.hh"
+#include "solver/relaxation.hh"
 
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -10,28 +18,106 @@
 namespace rodmesh::cli {
 
 namespace {
+
 struct SimulateOptions {
   std::string scene;
   std::string output;
+  std::string staticSolver = "newton";
   NewtonOptions newton;
+  RelaxationOptions relaxation;
+  bool dynamic = false;
+  double duration = 0.0;
+  double fps = 30.0;
+  DynamicsOptions dynamics;
 };
+
+// Everything one pose contributes to the archive and to the progress output.
+struct PoseOutcome {
+  std::string name;
+  std::vector<Vec3> positions;
+  Eigen::VectorXd twist;
+  std::optional<double> rmsError;
+  std::string status;  // converged, not_converged, failed
+  int iterations = 0;
+  double residualNorm = 0.0;
+  double timeSeconds = 0.0;
+  int outOfPlaneStable = -1;  // planar Newton solves: 1 stable, 0 saddle in 3D, -1 not checked
+};
+
+constexpr double kMaxFrames = 1e6;
+
+std::string number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", x);
+  return buf;
+}
+
+void checkOptions(const SimulateOptions& o, const CLI::App& app) {
+  auto given = [&](const char* flag) { return app.count(flag) > 0; };
+  if (!o.dynamic) {
+    for (const char* flag : {"--duration", "--fps", "--max-step"})
+      if (given(flag)) throw InputError(std::string("simulate: ") + flag + " needs --dynamic");
+  } else {
+    if (!given("--duration")) throw InputError("simulate: --dynamic needs --duration SECONDS");
+    if (given("--static-solver")) throw InputError("simulate: --static-solver does not apply to --dynamic");
+    if (!(o.duration > 0) || !std::isfinite(o.duration))
+      throw InputError("simulate: --duration must be a positive number of seconds, got " + number(o.duration));
+    if (!(o.fps > 0) || !std::isfinite(o.fps))
+      throw InputError("simulate: --fps must be positive, got " + number(o.fps));
+    if (!(o.dynamics.maxStep > 0) || !std::isfinite(o.dynamics.maxStep))
+      throw InputError("simulate: --max-step must be a positive number of seconds, got " + number(o.dynamics.maxStep));
+    if (o.duration * o.fps > kMaxFrames)
+      throw InputError("simulate: --duration x --fps asks for more than 1e6 frames");
+    if (std::string why = o.dynamics.isValid(); !why.empty()) throw InputError("simulate: " + why);
+  }
+  if (std::string why = o.newton.isValid(); !why.empty()) throw InputError("simulate: " + why);
+  if (o.staticSolver == "relaxation")
+    if (std::string why = o.relaxation.isValid(); !why.empty()) throw InputError("simulate: " + why);
+}
+
 }  // namespace
 
 Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
   auto opts = std::make_shared<SimulateOptions>();
-  CLI::App* app = root.add_subcommand("simulate", "static equilibrium of every pose of a scene");
+  CLI::App* app = root.add_subcommand(
+      "simulate", "static equilibrium of every pose of a scene, or with --dynamic its motion from rest");
   app->add_option("scene", opts->scene, "scene file (rodmesh-scene/1 JSON)")->required();
   app->add_option("-o,--output", opts->output, "result archive (HDF5)")->required();
-  app->add_option("--tol", opts->newton.tolerance, "force residual tolerance, relative to the load scale")
+  app->add_option("--static-solver", opts->staticSolver,
+                  "newton (default) or relaxation (dynamic relaxation with kinetic damping, the paper's solver)")
+      ->check(CLI::IsMember({"newton", "relaxation"}))
       ->capture_default_str();
-  app->add_option("--max-iter", opts->newton.maxIterations, "Newton iterations per load step")->capture_default_str();
+  app->add_option("--tol", opts->newton.tolerance,
+                  "force residual tolerance, relative to the load scale (static solve; with --dynamic, per time step)")
+      ->capture_default_str();
+  app->add_option("--max-iter", opts->newton.maxIterations,
+                  "Newton iterations per load step (relaxation: iterations; --dynamic: Newton iterations per time step)")
+      ->capture_default_str();
+  app->add_flag("--dynamic", opts->dynamic, "simulate the motion from rest (backward Euler, adaptive steps)");
+  app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)");
+  app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")->capture_default_str();
+  app->add_option("--max-step", opts->dynamics.maxStep, "largest time step in seconds (--dynamic)")
+      ->capture_default_str();
 
   Command c;
   c.app = app;
-  c.run = [opts, &global]() -> int {
-    if (std::string why = opts->newton.isValid(); !why.empty()) throw InputError("simulate: " + why);
-    checkOutputPath(opts->output, "-o");
-    const Scene scene = readSceneFile(opts->scene);
+  c.run = [opts, app, &global]() -> int {
+    SimulateOptions& o = *opts;
+    const bool maxIterGiven = app->count("--max-iter") > 0;
+    const bool tolGiven = app->count("--tol") > 0;
+    o.relaxation.tolerance = o.newton.tolerance;
+    if (maxIterGiven) o.relaxation.maxIterations = o.newton.maxIterations;
+    if (o.dynamic) {
+      if (tolGiven) o.dynamics.tolerance = o.newton.tolerance;
+      if (maxIterGiven) o.dynamics.maxNewtonIterations = o.newton.maxIterations;
+      if (o.dynamics.maxStep > 0) {
+        o.dynamics.initialStep = std::min(o.dynamics.initialStep, o.dynamics.maxStep);
+        o.dynamics.minStep = std::min(o.dynamics.minStep, o.dynamics.maxStep);
+      }
+    }
+    checkOptions(o, *app);
+    checkOutputPath(o.output, "-o");
+    const Scene scene = readSceneFile(o.scene);
     const bool quiet = global.quiet;
     if (!quiet)
       for (const std::string& w : lastSceneWarnings()) std::cerr << "warning: " << w << "\n";
@@ -39,26 +125,116 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     const Design design = Design::fromScene(scene);
     if (!quiet) printEffects(model.effects(), model.network(), model.pose(0).numDofs());
 
-    auto progress = [&](int p, const PoseResult& r) {
-      if (quiet) return;
-      char line[512];
-      std::snprintf(line, sizeof line, "pose %d '%s': %s, %d Newton iterations, %d load steps, residual %.3e N (%.1e relative), %s",
-                    p, r.name.c_str(), r.report.converged ? "converged" : "NOT converged", r.report.iterations,
-                    r.report.loadSteps, r.report.residualNorm, r.report.relativeResidual,
-                    formatSeconds(r.report.timeSeconds).c_str());
-      std::cerr << line;
-      if (r.rmsError) std::fprintf(stderr, ", RMS error to target %.4f mm", *r.rmsError * 1e3);
-      std::cerr << "\n";
-      if (!r.report.converged) std::cerr << "  reason: " << r.report.message << "\n";
-    };
-    const SimulationResult res = simulateAll(model, design, opts->newton, progress);
-
     Archive a;
     a.version = versionString();
     a.command = "simulate";
-    a.status = res.allConverged ? "converged" : "not_converged";
     a.sceneJson = scene.sourceText;
-    describeModel(a, model.network(), model.effects(), res.dofsPerPose);
+    describeModel(a, model.network(), model.effects(), model.numPoses() > 0 ? model.pose(0).numDofs() : 0);
+
+    std::vector<PoseOutcome> outcomes;
+    auto reportPose = [&](int p, const PoseOutcome& r, const std::string& details, const std::string& reason) {
+      if (quiet) return;
+      char line[512];
+      std::snprintf(line, sizeof line, "pose %d '%s': %s, %s, residual %.3e N, %s", p, r.name.c_str(),
+                    r.status == "converged" ? (o.dynamic ? "done" : "converged")
+                                            : (r.status == "failed" ? "FAILED" : "NOT converged"),
+                    details.c_str(), r.residualNorm, formatSeconds(r.timeSeconds).c_str());
+      std::cerr << line;
+      if (r.rmsError) std::fprintf(stderr, ", RMS error to target %.4f mm", *r.rmsError * 1e3);
+      std::cerr << "\n";
+      if (!reason.empty()) std::cerr << "  reason: " << reason << "\n";
+    };
+    auto finishPose = [&](int p, PoseOutcome& r, const Eigen::VectorXd& u) {
+      PoseSystem& sys = model.pose(p);
+      r.name = scene.poses[p].name;
+      r.positions = sys.positions(u);
+      r.twist = sys.materialTwists(u);
+      if (!scene.poses[p].target.empty()) r.rmsError = rmsError(r.positions, scene.poses[p].target);
+    };
+
+    if (o.dynamic) {
+      a.extraRootAttributes["solver"] = "backward_euler";
+      a.extraRootAttributes["duration_s"] = std::to_string(o.duration);
+      a.extraRootAttributes["fps"] = std::to_string(o.fps);
+      const std::vector<double> masses = lumpedVertexMasses(model.network(), design, scene.material.density);
+      for (int p = 0; p < model.numPoses(); ++p) {
+        PoseSystem& sys = model.pose(p);
+        const std::string& name = scene.poses[p].name;
+        auto progress = [&](int frame, double t, const DynamicsReport& r) {
+          if (quiet) return;
+          std::fprintf(stderr, "pose %d '%s': frame %d, t = %.4f s, %d steps (%d rejected), %d Newton iterations\n", p,
+                       name.c_str(), frame, t, r.steps, r.rejectedSteps, r.newtonIterations);
+        };
+        DynamicFrames frames;
+        const DynamicsReport rep = simulateDynamics(sys, design, masses, o.dynamics, o.duration, o.fps, frames, progress);
+        PoseOutcome r;
+        finishPose(p, r, frames.finalDofs);
+        r.status = rep.ok ? "converged" : "failed";
+        r.iterations = rep.newtonIterations;
+        r.residualNorm = rep.lastResidual;
+        r.timeSeconds = rep.wallSeconds;
+        char details[256];
+        std::snprintf(details, sizeof details,
+                      "t = %.4f s in %d steps (%d rejected, step %.3g to %.3g s), %d Newton iterations", rep.time,
+                      rep.steps, rep.rejectedSteps, rep.minStepTaken, rep.maxStepTaken, rep.newtonIterations);
+        reportPose(p, r, details, rep.ok ? "" : rep.message);
+        ArchiveFrames af;
+        af.name = name;
+        af.time = Eigen::Map<const Eigen::VectorXd>(frames.time.data(), frames.time.size());
+        for (const std::vector<Vec3>& x : frames.positions) {
+          MatX3 m(x.size(), 3);
+          for (std::size_t v = 0; v < x.size(); ++v) m.row(v) = x[v].transpose();
+          af.positions.push_back(std::move(m));
+        }
+        a.frames.push_back(std::move(af));
+        outcomes.push_back(std::move(r));
+      }
+    } else if (o.staticSolver == "relaxation") {
+      a.extraRootAttributes["solver"] = "relaxation";
+      for (int p = 0; p < model.numPoses(); ++p) {
+        PoseSystem& sys = model.pose(p);
+        Eigen::VectorXd u = sys.restDofs(design);
+        const RelaxationReport rep = relaxEquilibrium(sys, design, u, o.relaxation);
+        PoseOutcome r;
+        finishPose(p, r, u);
+        r.status = rep.converged ? "converged" : "not_converged";
+        r.iterations = rep.iterations;
+        r.residualNorm = rep.residualNorm;
+        r.timeSeconds = rep.timeSeconds;
+        char details[256];
+        std::snprintf(details, sizeof details, "%d relaxation iterations, %d kinetic-energy peaks, relative residual %.1e",
+                      rep.iterations, rep.restarts, rep.relativeResidual);
+        reportPose(p, r, details, rep.converged ? "" : rep.message);
+        outcomes.push_back(std::move(r));
+      }
+    } else {
+      a.extraRootAttributes["solver"] = "newton";
+      auto progress = [&](int p, const PoseResult& pr) {
+        PoseOutcome r;
+        finishPose(p, r, pr.dofs);
+        r.status = pr.report.converged ? "converged" : "not_converged";
+        r.iterations = pr.report.iterations;
+        r.residualNorm = pr.report.residualNorm;
+        r.timeSeconds = pr.report.timeSeconds;
+        if (pr.outOfPlaneStable) r.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
+        char details[256];
+        std::snprintf(details, sizeof details, "%d Newton iterations, %d load steps, relative residual %.1e",
+                      pr.report.iterations, pr.report.loadSteps, pr.report.relativeResidual);
+        reportPose(p, r, details, pr.report.converged ? "" : pr.report.message);
+        if (!quiet && r.outOfPlaneStable == 0)
+          std::cerr << "  note: this in-plane equilibrium is unstable out of plane (a saddle of the 3D model); "
+                       "solve with \"effects\" including \"twist\" to find the buckled state\n";
+        outcomes.push_back(std::move(r));
+      };
+      simulateAll(model, design, o.newton, progress);
+    }
+
+    bool allOk = true, anyFailed = false;
+    for (const PoseOutcome& r : outcomes) {
+      allOk = allOk && r.status == "converged";
+      anyFailed = anyFailed || r.status == "failed";
+    }
+    a.status = allOk ? "converged" : anyFailed ? "failed" : "not_converged";
     const int nv = model.network().numVertices();
     a.restPositions.resize(nv, 3);
     a.radii.resize(nv, 2);
@@ -66,8 +242,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       a.restPositions.row(v) = design.restPositions[v].transpose();
       a.radii.row(v) = design.radii[v].transpose();
     }
-    for (std::size_t p = 0; p < res.poses.size(); ++p) {
-      const PoseResult& r = res.poses[p];
+    for (std::size_t p = 0; p < outcomes.size(); ++p) {
+      const PoseOutcome& r = outcomes[p];
       ArchivePose ap;
       ap.name = r.name;
       ap.positions.resize(nv, 3);
@@ -78,16 +254,17 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         ap.target.resize(nv, 3);
         for (int v = 0; v < nv; ++v) ap.target.row(v) = target[v].transpose();
       }
-      ap.residualNorm = r.report.residualNorm;
+      ap.residualNorm = r.residualNorm;
       ap.rmsError = r.rmsError;
-      ap.status = r.report.converged ? "converged" : "not_converged";
-      ap.iterations = r.report.iterations;
-      ap.timeSeconds = r.report.timeSeconds;
+      ap.status = r.status;
+      ap.iterations = r.iterations;
+      ap.timeSeconds = r.timeSeconds;
+      ap.outOfPlaneStable = r.outOfPlaneStable;
       a.poses.push_back(std::move(ap));
     }
-    writeArchive(a, opts->output);
-    if (!quiet) std::cerr << "wrote " << opts->output << " (" << a.status << ")\n";
-    return res.allConverged ? kExitDone : kExitNotConverged;
+    writeArchive(a, o.output);
+    if (!quiet) std::cerr << "wrote " << o.output << " (" << a.status << ")\n";
+    return allOk ? kExitDone : kExitNotConverged;
   };
   return c;
 }
