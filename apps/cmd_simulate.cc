@@ -28,6 +28,7 @@ struct SimulateOptions {
   bool dynamic = false;
   double duration = 0.0;
   double fps = 30.0;
+  std::optional<double> ramp;  // s; default: see rampFor
   DynamicsOptions dynamics;
 };
 
@@ -46,6 +47,16 @@ struct PoseOutcome {
 
 constexpr double kMaxFrames = 1e6;
 
+// Ramp time of a dynamic run: --ramp if given; else, when a held vertex of the
+// pose is prescribed away from its rest position (which it cannot jump to),
+// a tenth of the duration; else 0 (loads at once, e.g. a sudden gravity).
+double rampFor(const SimulateOptions& o, const Scene& scene, int pose) {
+  if (o.ramp) return *o.ramp;
+  for (const FixedVertex& f : scene.poses[pose].fixed)
+    if (f.position && (*f.position - scene.vertices[f.vertex]).norm() > 0) return 0.1 * o.duration;
+  return 0.0;
+}
+
 std::string number(double x) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", x);
@@ -55,7 +66,7 @@ std::string number(double x) {
 void checkOptions(const SimulateOptions& o, const CLI::App& app) {
   auto given = [&](const char* flag) { return app.count(flag) > 0; };
   if (!o.dynamic) {
-    for (const char* flag : {"--duration", "--fps", "--max-step"})
+    for (const char* flag : {"--duration", "--fps", "--max-step", "--ramp"})
       if (given(flag)) throw InputError(std::string("simulate: ") + flag + " needs --dynamic");
   } else {
     if (!given("--duration")) throw InputError("simulate: --dynamic needs --duration SECONDS");
@@ -66,6 +77,8 @@ void checkOptions(const SimulateOptions& o, const CLI::App& app) {
       throw InputError("simulate: --fps must be positive, got " + number(o.fps));
     if (!(o.dynamics.maxStep > 0) || !std::isfinite(o.dynamics.maxStep))
       throw InputError("simulate: --max-step must be a positive number of seconds, got " + number(o.dynamics.maxStep));
+    if (o.ramp && (!(*o.ramp >= 0) || !std::isfinite(*o.ramp)))
+      throw InputError("simulate: --ramp must be a non-negative number of seconds, got " + number(*o.ramp));
     if (o.duration * o.fps > kMaxFrames)
       throw InputError("simulate: --duration x --fps asks for more than 1e6 frames");
     if (std::string why = o.dynamics.isValid(); !why.empty()) throw InputError("simulate: " + why);
@@ -98,6 +111,9 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")->capture_default_str();
   app->add_option("--max-step", opts->dynamics.maxStep, "largest time step in seconds (--dynamic)")
       ->capture_default_str();
+  app->add_option("--ramp", opts->ramp,
+                  "seconds over which loads and prescribed positions of held vertices grow from zero (--dynamic; "
+                  "default 0, or a tenth of the duration when a held vertex is prescribed away from rest)");
 
   Command c;
   c.app = app;
@@ -165,8 +181,13 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
           std::fprintf(stderr, "pose %d '%s': frame %d, t = %.4f s, %d steps (%d rejected), %d Newton iterations\n", p,
                        name.c_str(), frame, t, r.steps, r.rejectedSteps, r.newtonIterations);
         };
+        DynamicsOptions dyn = o.dynamics;
+        dyn.loadRampTime = rampFor(o, scene, p);
+        if (!quiet && dyn.loadRampTime > 0)
+          std::fprintf(stderr, "pose %d '%s': loads and held positions ramped in over %g s\n", p, name.c_str(),
+                       dyn.loadRampTime);
         DynamicFrames frames;
-        const DynamicsReport rep = simulateDynamics(sys, design, masses, o.dynamics, o.duration, o.fps, frames, progress);
+        const DynamicsReport rep = simulateDynamics(sys, design, masses, dyn, o.duration, o.fps, frames, progress);
         PoseOutcome r;
         finishPose(p, r, frames.finalDofs);
         r.status = rep.ok ? "converged" : "failed";

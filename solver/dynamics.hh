@@ -49,7 +49,7 @@ struct DynamicsOptions {
   double shrinkFactor = 0.5;     // step reduction after a rejected step
   int easyIterations = 4;        // Newton iterations at or below which a step is easy
   int maxNewtonIterations = 15;  // per step; a step needing more is rejected
-  double tolerance = 1e-8;       // |grad Phi| <= tolerance * max(load scale, |grad Phi| at the step's start)
+  double tolerance = 1e-8;       // |grad Phi| <= tolerance * |grad Phi| at the step's start (or round-off)
   double maxDisplacement = 0.25;  // per step, in mean rest edge lengths, from the prediction u_n + h v_n
   double maxTwistChange = 0.5;   // rad per step
   double loadRampTime = 0.0;     // s; loads and held displacements grow linearly to 1 over this time (0: at once)

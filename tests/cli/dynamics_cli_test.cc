@@ -190,6 +190,40 @@ TEST_F(DynamicsCliTest, DynamicFailureExitsOneAndKeepsTheFramesReached) {
   EXPECT_EQ(f->positions.back(), p->positions);
 }
 
+TEST_F(DynamicsCliTest, DisplacedHeldVerticesAreRampedIn) {
+  // A rod clamped at vertex 0 whose other end is held 5 mm above its rest
+  // position: it cannot jump there, so by default it moves there linearly
+  // over a tenth of the duration (--ramp overrides).
+  writeText(path("pull.json"), R"({
+    "format": "rodmesh-scene/1",
+    "material": {"young_modulus": 1e7, "poisson_ratio": 0.4, "density": 1000},
+    "vertices": [[0, 0, 0], [0.02, 0, 0], [0.04, 0, 0], [0.06, 0, 0], [0.08, 0, 0]],
+    "rods": [{"vertices": [0, 1, 2, 3, 4]}],
+    "radius": [0.002, 0.001],
+    "poses": [{"name": "lift", "clamped": [{"vertex": 0}], "fixed": [{"vertex": 4, "position": [0.08, 0, 0.005]}]}]
+  })");
+  for (const std::string ramp : {"", "0.05"}) {
+    SCOPED_TRACE("ramp '" + ramp + "'");
+    const RunOutcome r = run("simulate pull.json -o out.h5 -q --dynamic --duration 0.1 --fps 100" +
+                             (ramp.empty() ? std::string() : " --ramp " + ramp));
+    ASSERT_EQ(r.status, 0) << r.err;
+    const Archive a = readArchive(path("out.h5"));
+    ASSERT_EQ(a.frames.size(), 1u);
+    const ArchiveFrames& f = a.frames[0];
+    ASSERT_EQ(f.time.size(), 11);
+    const double T = ramp.empty() ? 0.01 : 0.05;
+    for (int k = 0; k < 11; ++k) {
+      const double lam = std::min(1.0, f.time[k] / T);
+      EXPECT_NEAR(f.positions[k](4, 2), 0.005 * lam, 1e-15) << "frame " << k;
+      EXPECT_NEAR(f.positions[k](4, 0), 0.08, 1e-15);
+    }
+    EXPECT_GT(f.positions.back()(2, 2), 0.0) << "the rod follows its lifted end";
+  }
+  const RunOutcome bad = run("simulate pull.json -o bad.h5 --dynamic --duration 0.1 --ramp -1");
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_EQ(lineCount(bad.err), 1) << bad.err;
+}
+
 TEST_F(DynamicsCliTest, RelaxationReachesTheNewtonEquilibrium) {
   copySource("bent_3d.json");
   copySource("cantilever.json");
@@ -229,6 +263,7 @@ TEST_F(DynamicsCliTest, BadDynamicUsageExitsTwoAndWritesNothing) {
            "--dynamic --duration 1 --fps 0",                // non-positive fps
            "--dynamic --duration 1 --fps -5",               //
            "--dynamic --duration 1 --max-step 0",           // non-positive step
+           "--ramp 0.1",                                    // --ramp without --dynamic
            "--dynamic --duration 1 --static-solver newton",  // static solver with dynamics
            "--static-solver relaxation --tol 0",            // invalid tolerance
        }) {
