@@ -3,17 +3,17 @@
 // --dynamic --duration T [--fps F] a backward-Euler dynamic simulation of
 // every pose from rest, stored as frames (/frames/NAME/positions T x V x 3,
 // /frames/NAME/time) with the last frame also in /poses/NAME/positions.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
 #include "solver/dynamics.hh"
 #include "solver/equilibrium.hh"
 #include "solver/mass.hh"
 #include "solver/relaxation.hh"
-
-#include <cmath>
-#include <cstdio>
-#include <iostream>
-#include <memory>
 
 namespace rodmesh::cli {
 
@@ -79,8 +79,7 @@ void checkOptions(const SimulateOptions& o, const CLI::App& app) {
       throw InputError("simulate: --max-step must be a positive number of seconds, got " + number(o.dynamics.maxStep));
     if (o.ramp && (!(*o.ramp >= 0) || !std::isfinite(*o.ramp)))
       throw InputError("simulate: --ramp must be a non-negative number of seconds, got " + number(*o.ramp));
-    if (o.duration * o.fps > kMaxFrames)
-      throw InputError("simulate: --duration x --fps asks for more than 1e6 frames");
+    if (o.duration * o.fps > kMaxFrames) throw InputError("simulate: --duration x --fps asks for more than 1e6 frames");
     if (std::string why = o.dynamics.isValid(); !why.empty()) throw InputError("simulate: " + why);
   }
   if (std::string why = o.newton.isValid(); !why.empty()) throw InputError("simulate: " + why);
@@ -103,8 +102,9 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--tol", opts->newton.tolerance,
                   "force residual tolerance, relative to the load scale (static solve; with --dynamic, per time step)")
       ->capture_default_str();
-  app->add_option("--max-iter", opts->newton.maxIterations,
-                  "Newton iterations per load step (relaxation: iterations; --dynamic: Newton iterations per time step)")
+  app->add_option(
+         "--max-iter", opts->newton.maxIterations,
+         "Newton iterations per load step (relaxation: iterations; --dynamic: Newton iterations per time step)")
       ->capture_default_str();
   app->add_flag("--dynamic", opts->dynamic, "simulate the motion from rest (backward Euler, adaptive steps)");
   app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)");
@@ -223,8 +223,9 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         r.residualNorm = rep.residualNorm;
         r.timeSeconds = rep.timeSeconds;
         char details[256];
-        std::snprintf(details, sizeof details, "%d relaxation iterations, %d kinetic-energy peaks, relative residual %.1e",
-                      rep.iterations, rep.restarts, rep.relativeResidual);
+        std::snprintf(details, sizeof details,
+                      "%d relaxation iterations, %d kinetic-energy peaks, relative residual %.1e", rep.iterations,
+                      rep.restarts, rep.relativeResidual);
         reportPose(p, r, details, rep.converged ? "" : rep.message);
         outcomes.push_back(std::move(r));
       }

@@ -16,10 +16,7 @@
 //                        (solver, iteration, time_s, relative_residual)
 //   network.md           summary: machine, scene, Newton time against the
 //                        0.2 s target and where it goes, the table above
-#include "io/scene_reader.hh"
-#include "solver/equilibrium.hh"
-#include "solver/newton.hh"
-#include "solver/relaxation.hh"
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <chrono>
@@ -29,8 +26,12 @@
 #include <iostream>
 #include <sstream>
 #include <string>
-#include <sys/stat.h>
 #include <vector>
+
+#include "io/scene_reader.hh"
+#include "solver/equilibrium.hh"
+#include "solver/newton.hh"
+#include "solver/relaxation.hh"
 
 using namespace rodmesh;
 
@@ -155,12 +156,18 @@ int main(int argc, char** argv) {
   double relaxLimit = 600.0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--scene" && i + 1 < argc) scenePath = argv[++i];
-    else if (a == "--scene2" && i + 1 < argc) scene2Path = argv[++i];
-    else if (a == "--out" && i + 1 < argc) outDir = argv[++i];
-    else if (a == "--repeat" && i + 1 < argc) repeat = std::max(1, std::stoi(argv[++i]));
-    else if (a == "--relax-time-limit" && i + 1 < argc) relaxLimit = std::stod(argv[++i]);
-    else if (a == "--command" && i + 1 < argc) command = argv[++i];
+    if (a == "--scene" && i + 1 < argc)
+      scenePath = argv[++i];
+    else if (a == "--scene2" && i + 1 < argc)
+      scene2Path = argv[++i];
+    else if (a == "--out" && i + 1 < argc)
+      outDir = argv[++i];
+    else if (a == "--repeat" && i + 1 < argc)
+      repeat = std::max(1, std::stoi(argv[++i]));
+    else if (a == "--relax-time-limit" && i + 1 < argc)
+      relaxLimit = std::stod(argv[++i]);
+    else if (a == "--command" && i + 1 < argc)
+      command = argv[++i];
     else {
       std::cerr << "usage: rodmesh_network_bench --scene HAT.json [--scene2 VARIANT.json] [--out DIR] [--repeat N] "
                    "[--relax-time-limit SECONDS] [--command TEXT]\n";
@@ -267,14 +274,17 @@ int main(int argc, char** argv) {
       double sec = NAN;
       const bool ok = relaxReach(levels[i], it, sec);
       csv << levels[i] << "," << newtonAt[i].iterations << "," << newtonAt[i].seconds << ",";
-      if (ok) csv << it << "," << sec << "," << sec / newtonAt[i].seconds << "\n";
-      else csv << ",,\n";
+      if (ok)
+        csv << it << "," << sec << "," << sec / newtonAt[i].seconds << "\n";
+      else
+        csv << ",,\n";
     }
   }
   {
     std::ofstream csv(outDir + "/network_history.csv");
     csv << "solver,iteration,time_s,relative_residual\n";
-    for (const HistPoint& p : newtonHist) csv << "newton," << p.iteration << "," << p.seconds << "," << p.residual << "\n";
+    for (const HistPoint& p : newtonHist)
+      csv << "newton," << p.iteration << "," << p.seconds << "," << p.residual << "\n";
     for (std::size_t k = 0; k < relax.residualHistory.size(); ++k)
       csv << "relaxation," << relax.historyIteration[k] << "," << relax.historySeconds[k] << ","
           << relax.residualHistory[k] << "\n";
@@ -291,7 +301,8 @@ int main(int argc, char** argv) {
      << loadBefore << "; after: " << loadAverage()
      << " (the machine is shared with other builds; times are wall-clock).\n\n";
   const auto base = [](const std::string& p) { return p.substr(p.find_last_of('/') + 1); };
-  md << "Scene: `" << base(scenePath) << "` (the hat of the paper, `rodmesh mesh examples/surfaces/hat.obj --cells 60 --pose "
+  md << "Scene: `" << base(scenePath)
+     << "` (the hat of the paper, `rodmesh mesh examples/surfaces/hat.obj --cells 60 --pose "
         "examples/surfaces/hat_front_down.obj --fix-box -1 -1 -0.01 1 1 0.001 --gravity 0 0 -9.81`): "
      << info.vertices << " vertices, " << info.edges << " edges, " << info.rods << " rods, " << info.connections
      << " connections; pose `" << scene.poses[0].name << "` holds the " << info.held
@@ -312,9 +323,12 @@ int main(int argc, char** argv) {
        << fmt("%.1e", t.relResidual) << " |\n";
   };
   newtonRow("hat (brim held)", info, headline);
-  if (second) newtonRow("hat, brim held at the back only (`" + base(scene2Path) + "`, `--fix-box -1 -1 -0.01 -0.08 1 0.001`)", info2, *second);
+  if (second)
+    newtonRow("hat, brim held at the back only (`" + base(scene2Path) + "`, `--fix-box -1 -1 -0.01 -0.08 1 0.001`)",
+              info2, *second);
   md << "\nTarget: at most 0.2 s on one core. Measured: **" << fmt("%.3f", headline.seconds) << " s** ("
-     << (headline.seconds <= 0.2 ? "meets" : "misses") << " the target). The paper: 21.06 s per static solve of its hat "
+     << (headline.seconds <= 0.2 ? "meets" : "misses")
+     << " the target). The paper: 21.06 s per static solve of its hat "
         "with dynamic relaxation (Intel i7 4470K).\n\n";
   md << "Where the time goes: assembly is the energy, gradient and Hessian evaluations (Newton steps and line "
         "searches); factorization is the numeric sparse LDL^T (and its solves); other is the rest: the symbolic "
@@ -340,15 +354,17 @@ int main(int argc, char** argv) {
     const bool ok = relaxReach(levels[i], it, sec);
     md << "| " << fmt("%.0e", levels[i]) << " | " << newtonAt[i].iterations << " | " << fmt("%.3f", newtonAt[i].seconds)
        << " | ";
-    if (ok) md << it << " | " << fmt("%.2f", sec) << " | " << fmt("%.0f", sec / newtonAt[i].seconds) << "x |\n";
-    else md << "not reached | > " << fmt("%.0f", relax.timeSeconds) << " | |\n";
+    if (ok)
+      md << it << " | " << fmt("%.2f", sec) << " | " << fmt("%.0f", sec / newtonAt[i].seconds) << "x |\n";
+    else
+      md << "not reached | > " << fmt("%.0f", relax.timeSeconds) << " | |\n";
   }
   md << "\nRelaxation run: " << relax.iterations << " iterations in " << fmt("%.1f", relax.timeSeconds) << " s ("
      << fmt("%.2f", relax.iterations ? 1e3 * relax.timeSeconds / relax.iterations : 0.0) << " ms per iteration), "
      << relax.restarts << " kinetic-energy peaks, " << relax.instabilities << " step halvings, final pseudo-time step "
      << fmt("%.2f", relax.finalStep) << ", relative residual " << fmt("%.1e", relax.relativeResidual) << " ("
-     << relax.message << "). Largest distance between the relaxation and Newton equilibria: "
-     << fmt("%.2e", maxDiff) << " m.\n\n";
+     << relax.message << "). Largest distance between the relaxation and Newton equilibria: " << fmt("%.2e", maxDiff)
+     << " m.\n\n";
   md << "Residual against time for both solvers: `network_history.csv` (Newton: runs stopped after k iterations, "
         "each timed whole, median of "
      << repeat << "; relaxation: every iteration of the run above).\n";

@@ -1,14 +1,14 @@
 #include "solver/dynamics.hh"
 
-#include "solver/mass.hh"
-#include "solver/newton.hh"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <sstream>
+
+#include "solver/mass.hh"
+#include "solver/newton.hh"
 
 namespace rodmesh {
 namespace {
@@ -170,7 +170,10 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
         const double delta = 1e-10 * D.cwiseAbs().maxCoeff();
         bool modified = false;
         for (int i = 0; i < n; ++i)
-          if (!(D[i] > delta)) { D[i] = std::max(std::abs(D[i]), std::max(delta, 1e-300)); modified = true; }
+          if (!(D[i] > delta)) {
+            D[i] = std::max(std::abs(D[i]), std::max(delta, 1e-300));
+            modified = true;
+          }
         if (!modified) {
           d = ldlt_.solve(-g);
         } else {
@@ -257,7 +260,8 @@ bool BackwardEuler::advanceTo(double t) {
     if (why.empty() && !tr.u.allFinite()) why = "non-finite state";
     if (why.empty() && tr.deviation > opt_.maxDisplacement) {
       std::ostringstream os;
-      os << "a vertex moved " << tr.deviation << " edge lengths from the prediction (limit " << opt_.maxDisplacement << ")";
+      os << "a vertex moved " << tr.deviation << " edge lengths from the prediction (limit " << opt_.maxDisplacement
+         << ")";
       why = os.str();
     }
     if (why.empty() && tr.twistChange > opt_.maxTwistChange) {

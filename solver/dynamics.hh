@@ -29,50 +29,49 @@
 // keeps the last accepted state (never NaN) and says why.
 #pragma once
 
-#include "model/pose_system.hh"
-
 #include <Eigen/Core>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
-
 #include <functional>
 #include <string>
 #include <vector>
 
+#include "model/pose_system.hh"
+
 namespace rodmesh {
 
 struct DynamicsOptions {
-  double initialStep = 1e-3;     // s, first step tried
-  double maxStep = 1e-2;         // s, largest step
-  double minStep = 1e-9;         // s, the integrator gives up below this step
-  double growFactor = 1.5;       // step growth after an easy step
-  double shrinkFactor = 0.5;     // step reduction after a rejected step
-  int easyIterations = 4;        // Newton iterations at or below which a step is easy
-  int maxNewtonIterations = 15;  // per step; a step needing more is rejected
-  double tolerance = 1e-8;       // |grad Phi| <= tolerance * |grad Phi| at the step's start (or round-off)
+  double initialStep = 1e-3;      // s, first step tried
+  double maxStep = 1e-2;          // s, largest step
+  double minStep = 1e-9;          // s, the integrator gives up below this step
+  double growFactor = 1.5;        // step growth after an easy step
+  double shrinkFactor = 0.5;      // step reduction after a rejected step
+  int easyIterations = 4;         // Newton iterations at or below which a step is easy
+  int maxNewtonIterations = 15;   // per step; a step needing more is rejected
+  double tolerance = 1e-8;        // |grad Phi| <= tolerance * |grad Phi| at the step's start (or round-off)
   double maxDisplacement = 0.25;  // per step, in mean rest edge lengths, from the prediction u_n + h v_n
-  double maxTwistChange = 0.5;   // rad per step
-  double loadRampTime = 0.0;     // s; loads and held displacements grow linearly to 1 over this time (0: at once)
-  double armijo = 1e-4;          // sufficient-decrease constant of the line search
-  int maxBacktracks = 30;        // step halvings of the line search
-  std::string isValid() const;   // empty if valid, else what is wrong
+  double maxTwistChange = 0.5;    // rad per step
+  double loadRampTime = 0.0;      // s; loads and held displacements grow linearly to 1 over this time (0: at once)
+  double armijo = 1e-4;           // sufficient-decrease constant of the line search
+  int maxBacktracks = 30;         // step halvings of the line search
+  std::string isValid() const;    // empty if valid, else what is wrong
 };
 
 struct DynamicsReport {
-  bool ok = true;                 // false: a step fell below minStep (state is the last accepted one)
-  int steps = 0;                  // accepted time steps
+  bool ok = true;  // false: a step fell below minStep (state is the last accepted one)
+  int steps = 0;   // accepted time steps
   int rejectedSteps = 0;
-  int newtonIterations = 0;       // over all steps, rejected ones included
+  int newtonIterations = 0;  // over all steps, rejected ones included
   int factorizations = 0;
-  int chartUpdates = 0;           // steps after which reference-frame charts moved
-  double time = 0.0;              // simulated time reached [s]
-  double minStepTaken = 0.0;      // smallest and largest accepted step [s]
+  int chartUpdates = 0;       // steps after which reference-frame charts moved
+  double time = 0.0;          // simulated time reached [s]
+  double minStepTaken = 0.0;  // smallest and largest accepted step [s]
   double maxStepTaken = 0.0;
-  double lastResidual = 0.0;      // |grad Phi| at the end of the last accepted step [N]
-  double loadScale = 0.0;         // N, as in Newton (full load)
+  double lastResidual = 0.0;  // |grad Phi| at the end of the last accepted step [N]
+  double loadScale = 0.0;     // N, as in Newton (full load)
   double wallSeconds = 0.0;
   double assemblySeconds = 0.0, factorSeconds = 0.0;
-  std::string message;            // why it stopped, when it did
+  std::string message;  // why it stopped, when it did
 };
 
 // Backward Euler integrator for one pose. The PoseSystem's reference-frame
@@ -132,9 +131,9 @@ class BackwardEuler {
 
 // Frames of a dynamic run: positions of every vertex at each frame time.
 struct DynamicFrames {
-  std::vector<double> time;                    // s
-  std::vector<std::vector<Vec3>> positions;    // one V-list per frame
-  Eigen::VectorXd finalDofs;                   // unknowns at the last frame
+  std::vector<double> time;                  // s
+  std::vector<std::vector<Vec3>> positions;  // one V-list per frame
+  Eigen::VectorXd finalDofs;                 // unknowns at the last frame
 };
 
 // Called after each stored frame (frame index, its time, the report so far).

@@ -11,11 +11,11 @@
 // the rest length of every incident edge.
 #pragma once
 
-#include "model/network.hh"
-#include "model/pose_system.hh"
-
 #include <Eigen/Core>
 #include <vector>
+
+#include "model/network.hh"
+#include "model/pose_system.hh"
 
 namespace rodmesh {
 

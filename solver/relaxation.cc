@@ -1,11 +1,11 @@
 #include "solver/relaxation.hh"
 
-#include "solver/newton.hh"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
+
+#include "solver/newton.hh"
 
 namespace rodmesh {
 namespace {
@@ -106,7 +106,9 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
     }
     if (n == 0 || res <= opt.tolerance * scale || res <= floorForce) {
       rep.converged = true;
-      rep.message = n == 0 ? "no unknowns" : scale <= floorForce ? "no load: rest configuration" : "force residual below tolerance";
+      rep.message = n == 0                ? "no unknowns"
+                    : scale <= floorForce ? "no load: rest configuration"
+                                          : "force residual below tolerance";
       break;
     }
     if (rep.iterations >= opt.maxIterations) {
@@ -119,8 +121,10 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
     }
 
     // Leapfrog velocity update (half a step from rest).
-    if (fromRest) v = (0.5 * h) * (-g).cwiseQuotient(m);
-    else v += h * (-g).cwiseQuotient(m);
+    if (fromRest)
+      v = (0.5 * h) * (-g).cwiseQuotient(m);
+    else
+      v += h * (-g).cwiseQuotient(m);
     const double ke = kinetic();
 
     if (!fromRest && ke < kePrev) {

@@ -25,40 +25,40 @@
 // solver/newton.hh), or |r| <= PoseSystem::roundoffForce.
 #pragma once
 
-#include "model/pose_system.hh"
-
 #include <Eigen/Core>
 #include <string>
 #include <vector>
 
+#include "model/pose_system.hh"
+
 namespace rodmesh {
 
 struct RelaxationOptions {
-  int maxIterations = 1000000;   // force evaluations
-  double tolerance = 1e-9;       // |residual| <= tolerance * load scale
-  double timeLimit = 0.0;        // s of wall-clock time; 0: none
-  double massSafety = 0.5;       // fictitious mass = massSafety * Gershgorin row sum (> 1/4 for stability)
-  double initialStep = 1.0;      // pseudo-time step, in units of the mass-scaling step h0 = 1
-  double maxStep = 1.9;          // largest pseudo-time step
-  double minStep = 1e-6;         // the solver gives up below this step
-  double stepGrowth = 1.1;       // per stable kinetic-energy cycle
-  int massUpdateInterval = 10;   // iterations between refreshes of the fictitious masses
-  int historyStride = 1;         // record every n-th residual (the last one always)
-  std::string isValid() const;   // empty if valid, else what is wrong
+  int maxIterations = 1000000;  // force evaluations
+  double tolerance = 1e-9;      // |residual| <= tolerance * load scale
+  double timeLimit = 0.0;       // s of wall-clock time; 0: none
+  double massSafety = 0.5;      // fictitious mass = massSafety * Gershgorin row sum (> 1/4 for stability)
+  double initialStep = 1.0;     // pseudo-time step, in units of the mass-scaling step h0 = 1
+  double maxStep = 1.9;         // largest pseudo-time step
+  double minStep = 1e-6;        // the solver gives up below this step
+  double stepGrowth = 1.1;      // per stable kinetic-energy cycle
+  int massUpdateInterval = 10;  // iterations between refreshes of the fictitious masses
+  int historyStride = 1;        // record every n-th residual (the last one always)
+  std::string isValid() const;  // empty if valid, else what is wrong
 };
 
 struct RelaxationReport {
   bool converged = false;
-  int iterations = 0;            // force evaluations
-  int restarts = 0;              // kinetic-energy peaks
-  int instabilities = 0;         // cycles restarted with a halved step
+  int iterations = 0;     // force evaluations
+  int restarts = 0;       // kinetic-energy peaks
+  int instabilities = 0;  // cycles restarted with a halved step
   int massUpdates = 0;
   int chartUpdates = 0;
-  double finalStep = 0.0;        // pseudo-time step at the end
-  double loadScale = 0.0;        // N
-  double residualNorm = 0.0;     // N, final
+  double finalStep = 0.0;     // pseudo-time step at the end
+  double loadScale = 0.0;     // N
+  double residualNorm = 0.0;  // N, final
   double relativeResidual = 0.0;
-  double energy = 0.0;           // J, final
+  double energy = 0.0;  // J, final
   double timeSeconds = 0.0;
   // Residual history: relative residual, at iteration, at elapsed seconds.
   std::vector<double> residualHistory;

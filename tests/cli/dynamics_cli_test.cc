@@ -1,21 +1,21 @@
 // End-to-end tests of `rodmesh simulate --dynamic` (frames in the archive)
 // and `rodmesh simulate --static-solver relaxation`, through the real binary
 // in a fresh temporary directory (helpers as in cli_test.cc).
-#include "io/archive.hh"
-
+#include <dirent.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <dirent.h>
 #include <fstream>
 #include <sstream>
 #include <string>
-#include <sys/stat.h>
-#include <sys/wait.h>
-#include <unistd.h>
 #include <vector>
+
+#include "io/archive.hh"
 
 namespace rodmesh {
 namespace {
@@ -174,7 +174,8 @@ TEST_F(DynamicsCliTest, DynamicFailureExitsOneAndKeepsTheFramesReached) {
   // One Newton iteration per step against a 1e-12 tolerance: every step of
   // the large load is rejected until the step falls below its minimum.
   copySource("cantilever.json");
-  const RunOutcome r = run("simulate cantilever.json -o out.h5 --dynamic --duration 0.1 --fps 50 --max-iter 1 --tol 1e-12");
+  const RunOutcome r =
+      run("simulate cantilever.json -o out.h5 --dynamic --duration 0.1 --fps 50 --max-iter 1 --tol 1e-12");
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_EQ(files(), (std::vector<std::string>{"cantilever.json", "out.h5"}));
   const Archive a = readArchive(path("out.h5"));
@@ -255,17 +256,17 @@ TEST_F(DynamicsCliTest, BadDynamicUsageExitsTwoAndWritesNothing) {
   const std::vector<std::string> before = {"cantilever.json"};
   // Rejected after parsing, with one error line naming the problem.
   for (const std::string args : {
-           "--duration 1",                                  // --duration without --dynamic
-           "--fps 30",                                      // --fps without --dynamic
-           "--dynamic",                                     // no duration
-           "--dynamic --duration 0",                        // non-positive duration
-           "--dynamic --duration -1",                       //
-           "--dynamic --duration 1 --fps 0",                // non-positive fps
-           "--dynamic --duration 1 --fps -5",               //
-           "--dynamic --duration 1 --max-step 0",           // non-positive step
-           "--ramp 0.1",                                    // --ramp without --dynamic
+           "--duration 1",                                   // --duration without --dynamic
+           "--fps 30",                                       // --fps without --dynamic
+           "--dynamic",                                      // no duration
+           "--dynamic --duration 0",                         // non-positive duration
+           "--dynamic --duration -1",                        //
+           "--dynamic --duration 1 --fps 0",                 // non-positive fps
+           "--dynamic --duration 1 --fps -5",                //
+           "--dynamic --duration 1 --max-step 0",            // non-positive step
+           "--ramp 0.1",                                     // --ramp without --dynamic
            "--dynamic --duration 1 --static-solver newton",  // static solver with dynamics
-           "--static-solver relaxation --tol 0",            // invalid tolerance
+           "--static-solver relaxation --tol 0",             // invalid tolerance
        }) {
     SCOPED_TRACE(args);
     const RunOutcome r = run("simulate cantilever.json -o out.h5 " + args);
@@ -309,8 +310,8 @@ for e in errors: print(e)
 sys.exit(1 if errors else 0)
 )PY";
   writeText(logDir_ + "/check.py", script);
-  const int raw = std::system(("/usr/bin/python3 " + shellQuote(logDir_ + "/check.py") + " " + shellQuote(path("out.h5")) +
-                               " >" + shellQuote(logDir_ + "/py") + " 2>&1")
+  const int raw = std::system(("/usr/bin/python3 " + shellQuote(logDir_ + "/check.py") + " " +
+                               shellQuote(path("out.h5")) + " >" + shellQuote(logDir_ + "/py") + " 2>&1")
                                   .c_str());
   EXPECT_EQ(raw, 0) << readText(logDir_ + "/py");
 }

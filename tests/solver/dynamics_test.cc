@@ -14,20 +14,21 @@
 //   - the dynamic state settles to the static (Newton) equilibrium, and
 //     dynamic relaxation reaches it too, within the position error its
 //     residual tolerance allows: |du| <= |r| / lambda_min(H).
-#include "model/stiffness.hh"
 #include "solver/dynamics.hh"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "model/stiffness.hh"
 #include "solver/equilibrium.hh"
 #include "solver/mass.hh"
 #include "solver/newton.hh"
 #include "solver/relaxation.hh"
 #include "tests/testutil/scenes.hh"
-
-#include <Eigen/Eigenvalues>
-#include <gtest/gtest.h>
-
-#include <cmath>
-#include <cstdio>
-#include <vector>
 
 namespace rodmesh {
 namespace {
@@ -235,7 +236,8 @@ TEST(Dynamics, CantileverPeriodMatchesFirstBendingMode) {
   PoseSystem& sys = o->mFree->pose(0);
   DynamicsOptions opt;
   opt.initialStep = opt.maxStep = period / 400;
-  BackwardEuler be(sys, o->design, dofMasses(sys, lumpedVertexMasses(o->mFree->network(), o->design, mat.density)), opt);
+  BackwardEuler be(sys, o->design, dofMasses(sys, lumpedVertexMasses(o->mFree->network(), o->design, mat.density)),
+                   opt);
   be.setState(o->u0, Eigen::VectorXd::Zero(sys.numDofs()));
   std::vector<double> t{0.0}, z{o->tip0};
   const int steps = static_cast<int>(2.6 * 400);
@@ -317,8 +319,8 @@ TEST(Dynamics, FailureKeepsTheLastStateAndSaysWhy) {
   opt.tolerance = 1e-12;
   opt.minStep = 1e-5;
   DynamicFrames frames;
-  const DynamicsReport r = simulateDynamics(model.pose(0), d, lumpedVertexMasses(model.network(), d, 1200.0), opt,
-                                            0.1, 100.0, frames);
+  const DynamicsReport r =
+      simulateDynamics(model.pose(0), d, lumpedVertexMasses(model.network(), d, 1200.0), opt, 0.1, 100.0, frames);
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.message.find("time step fell below"), std::string::npos) << r.message;
   EXPECT_LT(r.time, 0.1);
