@@ -194,10 +194,12 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         r.iterations = rep.newtonIterations;
         r.residualNorm = rep.lastResidual;
         r.timeSeconds = rep.wallSeconds;
+        char steps[96] = "";
+        if (rep.steps > 0)
+          std::snprintf(steps, sizeof steps, ", step %.3g to %.3g s", rep.minStepTaken, rep.maxStepTaken);
         char details[256];
-        std::snprintf(details, sizeof details,
-                      "t = %.4f s in %d steps (%d rejected, step %.3g to %.3g s), %d Newton iterations", rep.time,
-                      rep.steps, rep.rejectedSteps, rep.minStepTaken, rep.maxStepTaken, rep.newtonIterations);
+        std::snprintf(details, sizeof details, "t = %.4f s in %d steps (%d rejected%s), %d Newton iterations", rep.time,
+                      rep.steps, rep.rejectedSteps, steps, rep.newtonIterations);
         reportPose(p, r, details, rep.ok ? "" : rep.message);
         ArchiveFrames af;
         af.name = name;

@@ -256,6 +256,7 @@ bool BackwardEuler::advanceTo(double t) {
     sys_.setLoadFactor(loadFactorAt(t_ + h));
     Trial tr = solveStep(h);
     rep_.newtonIterations += tr.iterations;
+    rep_.lastResidual = tr.residual;
     std::string why = tr.failure;
     if (why.empty() && !tr.u.allFinite()) why = "non-finite state";
     if (why.empty() && tr.deviation > opt_.maxDisplacement) {
@@ -276,7 +277,6 @@ bool BackwardEuler::advanceTo(double t) {
       rep_.steps++;
       rep_.minStepTaken = rep_.steps == 1 ? h : std::min(rep_.minStepTaken, h);
       rep_.maxStepTaken = std::max(rep_.maxStepTaken, h);
-      rep_.lastResidual = tr.residual;
       if (sys_.reanchorCharts(u_)) rep_.chartUpdates++;
       const bool easy = tr.iterations <= opt_.easyIterations && tr.deviation <= 0.5 * opt_.maxDisplacement &&
                         tr.twistChange <= 0.5 * opt_.maxTwistChange;

@@ -67,7 +67,7 @@ struct DynamicsReport {
   double time = 0.0;          // simulated time reached [s]
   double minStepTaken = 0.0;  // smallest and largest accepted step [s]
   double maxStepTaken = 0.0;
-  double lastResidual = 0.0;  // |grad Phi| at the end of the last accepted step [N]
+  double lastResidual = 0.0;  // |grad Phi| at the end of the last step attempted [N] (accepted unless !ok)
   double loadScale = 0.0;     // N, as in Newton (full load)
   double wallSeconds = 0.0;
   double assemblySeconds = 0.0, factorSeconds = 0.0;
