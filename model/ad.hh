@@ -205,6 +205,117 @@ inline Hess<N, T> atan2(const Hess<N, T>& y, const Hess<N, T>& x) {
 template <int N, class T>
 inline double value(const Hess<N, T>& a) { return value(a.v); }
 
+// ---------------------------------------------------------------- Grad ----
+// Value and gradient only: for evaluations that need forces but no Hessian
+// (dynamic relaxation, residual checks), several times cheaper than Hess.
+template <int N, class T = double>
+struct Grad {
+  T v{};
+  std::array<T, N> g{};
+  Grad() = default;
+  Grad(double c) : v(c) {}  // NOLINT: constants promote implicitly
+  Grad(const T& c, int) : v(c) {}
+  static Grad variable(const T& x, int i) {
+    Grad r;
+    r.v = x;
+    r.g[i] = T(1.0);
+    return r;
+  }
+};
+template <int N, class T>
+inline Grad<N, T> chain(const Grad<N, T>& a, const T& f, const T& df) {
+  Grad<N, T> r;
+  r.v = f;
+  for (int i = 0; i < N; ++i) r.g[i] = df * a.g[i];
+  return r;
+}
+template <int N, class T>
+inline Grad<N, T> operator+(const Grad<N, T>& a, const Grad<N, T>& b) {
+  Grad<N, T> r;
+  r.v = a.v + b.v;
+  for (int i = 0; i < N; ++i) r.g[i] = a.g[i] + b.g[i];
+  return r;
+}
+template <int N, class T>
+inline Grad<N, T> operator-(const Grad<N, T>& a, const Grad<N, T>& b) {
+  Grad<N, T> r;
+  r.v = a.v - b.v;
+  for (int i = 0; i < N; ++i) r.g[i] = a.g[i] - b.g[i];
+  return r;
+}
+template <int N, class T>
+inline Grad<N, T> operator-(const Grad<N, T>& a) {
+  Grad<N, T> r;
+  r.v = -a.v;
+  for (int i = 0; i < N; ++i) r.g[i] = -a.g[i];
+  return r;
+}
+template <int N, class T>
+inline Grad<N, T> operator*(const Grad<N, T>& a, const Grad<N, T>& b) {
+  Grad<N, T> r;
+  r.v = a.v * b.v;
+  for (int i = 0; i < N; ++i) r.g[i] = a.v * b.g[i] + b.v * a.g[i];
+  return r;
+}
+template <int N, class T>
+inline Grad<N, T> operator*(const Grad<N, T>& a, double s) {
+  Grad<N, T> r;
+  r.v = a.v * s;
+  for (int i = 0; i < N; ++i) r.g[i] = a.g[i] * s;
+  return r;
+}
+template <int N, class T>
+inline Grad<N, T> operator*(double s, const Grad<N, T>& a) { return a * s; }
+template <int N, class T>
+inline Grad<N, T> operator+(const Grad<N, T>& a, double s) { Grad<N, T> r = a; r.v = r.v + T(s); return r; }
+template <int N, class T>
+inline Grad<N, T> operator+(double s, const Grad<N, T>& a) { return a + s; }
+template <int N, class T>
+inline Grad<N, T> operator-(const Grad<N, T>& a, double s) { Grad<N, T> r = a; r.v = r.v - T(s); return r; }
+template <int N, class T>
+inline Grad<N, T> operator-(double s, const Grad<N, T>& a) { return -a + s; }
+template <int N, class T>
+inline Grad<N, T> inverse(const Grad<N, T>& a) {
+  const T i = T(1.0) / a.v;
+  return chain(a, i, -(i * i));
+}
+template <int N, class T>
+inline Grad<N, T> operator/(const Grad<N, T>& a, const Grad<N, T>& b) { return a * inverse(b); }
+template <int N, class T>
+inline Grad<N, T> operator/(const Grad<N, T>& a, double s) { return a * (1.0 / s); }
+template <int N, class T>
+inline Grad<N, T> operator/(double s, const Grad<N, T>& b) { return inverse(b) * s; }
+template <int N, class T>
+inline Grad<N, T> sqrt(const Grad<N, T>& a) {
+  using std::sqrt;
+  const T s = sqrt(a.v);
+  return chain(a, s, T(0.5) / s);
+}
+template <int N, class T>
+inline Grad<N, T> sin(const Grad<N, T>& a) {
+  using std::cos;
+  using std::sin;
+  return chain(a, sin(a.v), cos(a.v));
+}
+template <int N, class T>
+inline Grad<N, T> cos(const Grad<N, T>& a) {
+  using std::cos;
+  using std::sin;
+  return chain(a, cos(a.v), -sin(a.v));
+}
+template <int N, class T>
+inline Grad<N, T> atan2(const Grad<N, T>& y, const Grad<N, T>& x) {
+  using std::atan2;
+  Grad<N, T> r;
+  const T r2 = x.v * x.v + y.v * y.v;
+  const T fy = x.v / r2, fx = -(y.v / r2);
+  r.v = atan2(y.v, x.v);
+  for (int i = 0; i < N; ++i) r.g[i] = fy * y.g[i] + fx * x.g[i];
+  return r;
+}
+template <int N, class T>
+inline double value(const Grad<N, T>& a) { return value(a.v); }
+
 // Embeds a scalar differentiated over M variables into one over N >= M
 // variables: variable i becomes variable slots[i].
 template <int N, int M, class T>

@@ -808,6 +808,22 @@ void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) con
       out.energy += kern(xs, ps);
       return;
     }
+    if (!hv) {
+      // Forces only: first-order AD.
+      using G = ad::Grad<NX, double>;
+      G x[NX];
+      for (int i = 0; i < ls.nx; ++i) x[i] = G::variable(ls.xv[i], i);
+      const G r = kern(x, ls.pv);
+      out.energy += r.v;
+      for (int k = 0; k < ls.nx; ++k)
+        for (int a = 0; a < 2; ++a) {
+          const int pos = ls.xmap[k].idx[a];
+          if (pos < 0) continue;
+          const int I = ls.sdofs[pos];
+          if (I >= 0) (*out.gradient)[I] += ls.xmap[k].coef[a] * r.g[k];
+        }
+      return;
+    }
     const ad::Hess<NX, double> r = evalLocal<NX, double, false>(kern, ls, nullptr);
     out.energy += r.v;
     scatterSim<NX>(r, ls, stencilSlots_.data() + stencils_[sidx].offset, out.gradient, hv);
