@@ -336,8 +336,7 @@ int main(int argc, char** argv) {
         "bookkeeping. One evaluation at the rest state (median of "
      << repeat << "): energy only " << fmt("%.2f", cost.energy * 1e3) << " ms, energy + gradient "
      << fmt("%.2f", cost.gradient * 1e3) << " ms, energy + gradient + Hessian " << fmt("%.2f", cost.hessian * 1e3)
-     << " ms. The gradient costs as much as the Hessian: `PoseSystem::evaluate` computes the local Hessians by "
-        "forward-mode AD even when only the gradient is asked for, which is what every relaxation iteration pays.\n\n";
+     << " ms (forces alone use first-order AD, which is what every relaxation iteration pays).\n\n";
 
   md << "## Newton against dynamic relaxation at equal force residual\n\n";
   md << "Newton: full solves to each relative residual (median of " << repeat
