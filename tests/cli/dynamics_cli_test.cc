@@ -287,8 +287,8 @@ TEST_F(DynamicsCliTest, BadDynamicUsageExitsTwoAndWritesNothing) {
 
 // The frames as a third-party reader sees them (h5py): time-major T x V x 3.
 TEST_F(DynamicsCliTest, FramesLayoutSeenByH5py) {
-  if (std::system("/usr/bin/python3 -c 'import h5py, numpy' >/dev/null 2>&1") != 0)
-    GTEST_SKIP() << "/usr/bin/python3 cannot import h5py and numpy";
+  ASSERT_EQ(std::system("/usr/bin/python3 -c 'import h5py, numpy' >/dev/null 2>&1"), 0)
+      << "/usr/bin/python3 cannot import h5py and numpy (run scripts/install-deps.sh)";
   copySource("cantilever.json");
   ASSERT_EQ(run("simulate cantilever.json -o out.h5 -q --dynamic --duration 0.1 --fps 30").status, 0);
   const std::string script = R"PY(
