@@ -361,29 +361,22 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
   }
   // The final verdict is judged at the full load, whatever the last step said.
   system.setLoadFactor(1.0);
-  {
-    Eigen::VectorXd gFinal;
-    double eFinal;
-    system.evaluate(u, design, eFinal, gFinal, false);
-    const double resFinal = system.forceResidual(gFinal).norm();
-    if (r.converged && !(resFinal <= std::max(1e3 * opt.tolerance, std::sqrt(opt.tolerance)) * scale ||
-                         resFinal <= system.roundoffForce(design))) {
-      r.converged = false;
-      r.message = "the final state does not satisfy equilibrium at the full load (" + r.message + ")";
-    }
-  }
-  total.converged = r.converged;
-  total.unstable = r.unstable;
-  total.roundoff = r.roundoff;
-  total.negativePivots = r.negativePivots;
-  total.message = r.message;
-  system.setLoadFactor(1.0);
   Eigen::VectorXd g;
   double e;
   system.evaluate(u, design, e, g, false);
   total.residualNorm = system.forceResidual(g).norm();
   total.relativeResidual = total.residualNorm / scale;
   total.energy = e;
+  if (r.converged && !(total.residualNorm <= std::max(1e3 * opt.tolerance, std::sqrt(opt.tolerance)) * scale ||
+                       total.residualNorm <= system.roundoffForce(design))) {
+    r.converged = false;
+    r.message = "the final state does not satisfy equilibrium at the full load (" + r.message + ")";
+  }
+  total.converged = r.converged;
+  total.unstable = r.unstable;
+  total.roundoff = r.roundoff;
+  total.negativePivots = r.negativePivots;
+  total.message = r.message;
   total.timeSeconds = since(t0);
   system.setLoadFactor(saved);
   return total;
