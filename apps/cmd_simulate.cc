@@ -137,7 +137,15 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     const bool quiet = global.quiet;
     if (!quiet)
       for (const std::string& w : lastSceneWarnings()) std::cerr << "warning: " << w << "\n";
-    SceneModel model(scene);
+    // Limits of the model that the scene may hit (e.g. a connection of more
+    // than six rods) are input errors of this file.
+    std::unique_ptr<SceneModel> modelPtr;
+    try {
+      modelPtr = std::make_unique<SceneModel>(scene);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(scene.sourcePath + ": rods: " + e.what());
+    }
+    SceneModel& model = *modelPtr;
     const Design design = Design::fromScene(scene);
     if (!quiet) printEffects(model.effects(), model.network(), model.pose(0).numDofs());
 

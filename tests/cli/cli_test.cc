@@ -346,6 +346,23 @@ TEST_F(CliTest, BadSceneExitsTwoWithOneLineAndWritesNothing) {
   EXPECT_NE(line.find("17"), std::string::npos) << line;
 }
 
+TEST_F(CliTest, ConnectionOfTooManyRodsExitsTwoNamingFileAndVertex) {
+  // Seven rods end at vertex 0: beyond the connection model's six.
+  std::string v = "[[0, 0, 0]", rods;
+  for (int r = 0; r < 7; ++r) {
+    const double a = 2 * 3.14159265358979 * r / 7;
+    v += ", [" + std::to_string(0.01 * std::cos(a)) + ", " + std::to_string(0.01 * std::sin(a)) + ", 0]";
+    rods += std::string(r ? ", " : "") + "{\"vertices\": [0, " + std::to_string(r + 1) + "]}";
+  }
+  writeFile(path("star.json"), "{\"format\": \"rodmesh-scene/1\", \"material\": {\"young_modulus\": 1e7, "
+                               "\"poisson_ratio\": 0.4, \"density\": 1000}, \"vertices\": " + v + "], \"rods\": [" + rods +
+                               "], \"radius\": [0.001, 0.001], \"poses\": [{\"fixed\": [{\"vertex\": 1}]}]}");
+  const std::string line = expectBadInput("simulate star.json -o out.h5", {"star.json"});
+  EXPECT_NE(line.find("star.json"), std::string::npos) << line;
+  EXPECT_NE(line.find("vertex 0"), std::string::npos) << line;
+  EXPECT_NE(line.find("7"), std::string::npos) << line;
+}
+
 TEST_F(CliTest, BadSceneLeavesAnExistingOutputUntouched) {
   writeFile(path("bad.json"), "{\"format\": \"rodmesh-scene/1\"}");
   writeFile(path("out.h5"), "previous result");
