@@ -3,6 +3,8 @@
 // directory.
 #include "io/archive.hh"
 
+#include "tests/cli/cli_util.hh"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -24,28 +26,16 @@ namespace {
 const std::string kExe = RODMESH_EXE;
 const std::string kSourceDir = RODMESH_SOURCE_DIR;
 
-std::string readFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+std::string readFile(const std::string& path) { return clitest::readText(path); }
 
-void writeFile(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-}
+void writeFile(const std::string& path, const std::string& text) { clitest::writeText(path, text); }
 
 bool fileExists(const std::string& p) {
   struct stat st;
   return ::stat(p.c_str(), &st) == 0;
 }
 
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
+std::string quote(const std::string& s) { return clitest::shellQuote(s); }
 
 std::vector<std::string> nonEmptyLines(const std::string& text) {
   std::vector<std::string> out;
@@ -97,18 +87,7 @@ class CliTest : public ::testing::Test {
     return r;
   }
 
-  std::vector<std::string> files() const {
-    std::vector<std::string> out;
-    if (DIR* d = opendir(dir_.c_str())) {
-      while (dirent* e = readdir(d)) {
-        std::string n = e->d_name;
-        if (n != "." && n != "..") out.push_back(n);
-      }
-      closedir(d);
-    }
-    std::sort(out.begin(), out.end());
-    return out;
-  }
+  std::vector<std::string> files() const { return clitest::listFiles(dir_); }
 
   // Runs a command that must fail with status 2, write nothing, and print
   // exactly one error line on stderr. Returns that line.

@@ -2,6 +2,8 @@
 // and `rodmesh simulate --static-solver relaxation`, through the real binary
 // in a fresh temporary directory (helpers as in cli_test.cc).
 #include <dirent.h>
+#include "tests/cli/cli_util.hh"
+
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -23,20 +25,11 @@ namespace {
 const std::string kExe = RODMESH_EXE;
 const std::string kSourceDir = RODMESH_SOURCE_DIR;
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using clitest::readText;
 
-void writeText(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+using clitest::writeText;
 
-std::string shellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
+using clitest::shellQuote;
 
 int lineCount(const std::string& text) {
   int n = 0;
@@ -80,18 +73,7 @@ class DynamicsCliTest : public ::testing::Test {
     return r;
   }
 
-  std::vector<std::string> files() const {
-    std::vector<std::string> out;
-    if (DIR* d = opendir(dir_.c_str())) {
-      while (dirent* e = readdir(d)) {
-        const std::string n = e->d_name;
-        if (n != "." && n != "..") out.push_back(n);
-      }
-      closedir(d);
-    }
-    std::sort(out.begin(), out.end());
-    return out;
-  }
+  std::vector<std::string> files() const { return clitest::listFiles(dir_); }
 
   std::string dir_, logDir_;
 };

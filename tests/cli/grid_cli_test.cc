@@ -3,6 +3,8 @@
 // 2, one message line and nothing written. Skipped when the executable was
 // built without the meshing module (no `mesh` verb).
 #include <dirent.h>
+#include "tests/cli/cli_util.hh"
+
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -23,18 +25,9 @@ namespace {
 
 const std::string kExe = RODMESH_EXE;
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using clitest::readText;
 
-std::string shellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
+using clitest::shellQuote;
 
 class GridCli : public ::testing::Test {
  protected:
@@ -56,18 +49,7 @@ class GridCli : public ::testing::Test {
     err_ = readText(log_ + "/err");
     return (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
   }
-  std::vector<std::string> files() const {
-    std::vector<std::string> out;
-    if (DIR* d = opendir(dir_.c_str())) {
-      while (dirent* e = readdir(d)) {
-        const std::string n = e->d_name;
-        if (n != "." && n != "..") out.push_back(n);
-      }
-      closedir(d);
-    }
-    std::sort(out.begin(), out.end());
-    return out;
-  }
+  std::vector<std::string> files() const { return clitest::listFiles(dir_); }
   std::string path(const std::string& name) const { return dir_ + "/" + name; }
 
   std::string dir_, log_, err_;

@@ -29,6 +29,8 @@
 #include "model/stiffness.hh"
 #include "solver/equilibrium.hh"
 
+#include "tests/testutil/solve.hh"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -47,29 +49,9 @@ namespace {
 
 constexpr double kPi = stiffness::kPi;
 
-std::string sci(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3e", v);
-  return buf;
-}
-
-struct Solved {
-  std::vector<Vec3> x;
-  Eigen::VectorXd theta;  // per edge: material twist from the transported rest frame
-  NewtonReport report;
-  EffectSet effects;
-};
-
-// Solves the first pose of `s` (production path) with the given relative
-// force-residual tolerance.
-Solved solve(const Scene& s, double tolerance) {
-  SceneModel model(s);
-  const Design design = Design::fromScene(s);
-  NewtonOptions options;
-  options.tolerance = tolerance;
-  SimulationResult r = simulateAll(model, design, options);
-  return Solved{r.poses[0].positions, r.poses[0].twist, r.poses[0].report, model.effects()};
-}
+using testutil::solve;
+using testutil::sci;
+using testutil::Solved;
 
 Scene emptyScene(double E, double nu) {
   Scene s;

@@ -38,6 +38,8 @@
 #include "solver/equilibrium.hh"
 #include "tests/testutil/scenes.hh"
 
+#include "tests/testutil/solve.hh"
+
 #include <gtest/gtest.h>
 
 #include <array>
@@ -55,36 +57,9 @@ using testutil::tipVertex;
 constexpr double kPi = stiffness::kPi;
 
 // Measured values are recorded as test properties (--gtest_output=xml).
-std::string sci(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3e", v);
-  return buf;
-}
-
-struct Solved {
-  std::vector<Vec3> x;
-  Eigen::VectorXd theta;
-  NewtonReport report;
-  int dofs = 0;
-  EffectSet effects;
-};
-
-// Solves the first pose of `s` through the production path (SceneModel +
-// simulateAll), with the given relative force-residual tolerance.
-Solved solve(const Scene& s, double tolerance = NewtonOptions{}.tolerance) {
-  SceneModel model(s);
-  const Design design = Design::fromScene(s);
-  NewtonOptions options;
-  options.tolerance = tolerance;
-  SimulationResult r = simulateAll(model, design, options);
-  Solved out;
-  out.x = r.poses[0].positions;
-  out.theta = r.poses[0].twist;
-  out.report = r.poses[0].report;
-  out.dofs = model.pose(0).numDofs();
-  out.effects = model.effects();
-  return out;
-}
+using testutil::sci;
+using testutil::solve;
+using testutil::Solved;
 
 // Tolerances (see the header). Small-load tests: the relative round-off
 // floors measured for their scenes are 2.4e-8 (tip loads, N = 32) and
