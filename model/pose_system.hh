@@ -23,6 +23,7 @@
 // derivatives are exact.
 #pragma once
 
+#include "model/design.hh"
 #include "model/effects.hh"
 #include "model/network.hh"
 #include "model/scene.hh"
@@ -33,19 +34,6 @@
 #include <vector>
 
 namespace rodmesh {
-
-// Design parameters: the things an optimiser may change.
-struct Design {
-  std::vector<Vec3> restPositions;
-  std::vector<Vec2> radii;  // [r_t, r_n] per vertex
-
-  static Design fromScene(const Scene& s) { return Design{s.vertices, s.radii}; }
-  int numParameters() const { return static_cast<int>(5 * restPositions.size()); }
-  Eigen::VectorXd toVector() const;
-  void fromVector(const Eigen::VectorXd& p);
-  static int restIndex(int vertex, int coord) { return 3 * vertex + coord; }
-  int radiusIndex(int vertex, int which) const { return static_cast<int>(3 * restPositions.size()) + 2 * vertex + which; }
-};
 
 using Triplet = Eigen::Triplet<double>;
 
