@@ -171,8 +171,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     auto finishPose = [&](int p, PoseOutcome& r, const Eigen::VectorXd& u) {
       PoseSystem& sys = model.pose(p);
       r.name = scene.poses[p].name;
-      r.positions = sys.positions(u);
-      r.twist = sys.materialTwists(u);
+      r.positions = sys.positions(u, design);
+      r.twist = sys.materialTwists(u, design);
       if (!scene.poses[p].target.empty()) r.rmsError = rmsError(r.positions, scene.poses[p].target);
     };
 

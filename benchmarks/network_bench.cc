@@ -251,7 +251,7 @@ int main(int argc, char** argv) {
             << relax.relativeResidual << " (" << relax.message << ")\n";
   double maxDiff = 0.0;
   {
-    const std::vector<Vec3> a = sys.positions(uNewton), b = sys.positions(uRelax);
+    const std::vector<Vec3> a = sys.positions(uNewton, design), b = sys.positions(uRelax, design);
     for (std::size_t v = 0; v < a.size(); ++v) maxDiff = std::max(maxDiff, (a[v] - b[v]).norm());
   }
   // First iteration at which relaxation reached each level.

@@ -98,7 +98,7 @@ Timing timeSolve(const Scene& scene, int repeat) {
     out.dofs = sys.numDofs();
     out.converged = r.converged;
     out.relResidual = r.relativeResidual;
-    out.x = sys.positions(u);
+    out.x = sys.positions(u, d);
   }
   out.solve = median(t);
   out.perIteration = median(ti);

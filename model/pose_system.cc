@@ -21,14 +21,19 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
   twist_ = fx_.has(Effect::Twist);
 
   held_.assign(nv, false);
+  heldExplicit_.assign(nv, false);
   heldTarget_ = scene.vertices;
   for (const FixedVertex& f : pose.fixed) {
     held_[f.vertex] = true;
-    if (f.position) heldTarget_[f.vertex] = *f.position;
+    if (f.position) {
+      heldExplicit_[f.vertex] = true;
+      heldTarget_[f.vertex] = *f.position;
+    }
   }
   std::vector<bool> clamped(nv, false);
   for (const ClampedVertex& c : pose.clamped) {
     held_[c.vertex] = true;
+    heldExplicit_[c.vertex] = false;  // a clamp holds the vertex at rest
     clamped[c.vertex] = true;
   }
   pointForce_.assign(nv, Vec3::Zero());
@@ -73,7 +78,6 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
       conn_.push_back(st);
     }
 
-  for (int e = 0; e < ne; ++e) sceneRestFrames_.push_back(network.restFrame(e, scene.vertices));
   resetCharts(Design::fromScene(scene));
   buildPattern();
 }
@@ -99,8 +103,8 @@ Vec3 transportD(const Vec3& a, const Vec3& b, const Vec3& v) {
 double signedAngleD(const Vec3& p, const Vec3& q, const Vec3& t) { return std::atan2(p.cross(q).dot(t), p.dot(q)); }
 }  // namespace
 
-bool PoseSystem::reanchorCharts(const Eigen::VectorXd& u, double cosLimit) {
-  const std::vector<Vec3> x = positions(u);
+bool PoseSystem::reanchorCharts(const Eigen::VectorXd& u, const Design& d, double cosLimit) {
+  const std::vector<Vec3> x = positions(u, d);
   bool changed = false;
   for (int e = 0; e < net_.numEdges(); ++e) {
     const Edge& ed = net_.edges()[e];
@@ -113,29 +117,69 @@ bool PoseSystem::reanchorCharts(const Eigen::VectorXd& u, double cosLimit) {
   return changed;
 }
 
-Eigen::VectorXd PoseSystem::materialTwists(const Eigen::VectorXd& u) const {
+Eigen::VectorXd PoseSystem::materialTwists(const Eigen::VectorXd& u, const Design& d) const {
   Eigen::VectorXd th = twists(u);
   if (!twist_) return th;
-  const std::vector<Vec3> x = positions(u);
+  const std::vector<Vec3> x = positions(u, d);
   for (int e = 0; e < net_.numEdges(); ++e) {
     const Edge& ed = net_.edges()[e];
     const Vec3 t = (x[ed.b] - x[ed.a]).normalized();
     const Vec3 ref = transportD(chartT_[e], t, chartD_[e]);
-    const Vec3 restRef = transportD(sceneRestFrames_[e].t, t, sceneRestFrames_[e].d1);
+    const EdgeFrame rest = net_.restFrame(e, d.restPositions);
+    const Vec3 restRef = transportD(rest.t, t, rest.d1);
     th[e] += signedAngleD(restRef, ref, t);
   }
   return th;
 }
 
-Vec3 PoseSystem::heldPosition(int v) const {
-  return scene_.vertices[v] + loadFactor_ * (heldTarget_[v] - scene_.vertices[v]);
+// A held vertex sits at its rest position under the current design, or, when
+// fixed at an explicit position, moves there from rest with the load factor.
+// A planar scene keeps held vertices in its plane (their rest positions are
+// projected onto it), so that its in-plane unknowns describe it exactly.
+Vec3 PoseSystem::heldPosition(int v, const Design& d) const {
+  Vec3 r = d.restPositions[v];
+  if (D_ == 2) r = fx_.planeOrigin + fx_.planeBasis * (fx_.planeBasis.transpose() * (r - fx_.planeOrigin));
+  if (!heldExplicit_[v]) return r;
+  return r + loadFactor_ * (heldTarget_[v] - r);
 }
 
-std::vector<Vec3> PoseSystem::positions(const Eigen::VectorXd& u) const {
+double PoseSystem::heldDesignCoefficient(int v) const {
+  if (!held_[v]) return 0.0;
+  return heldExplicit_[v] ? 1.0 - loadFactor_ : 1.0;
+}
+
+std::vector<double> PoseSystem::heldCoefficients() const {
+  std::vector<double> c(held_.size());
+  for (std::size_t v = 0; v < c.size(); ++v) c[v] = heldDesignCoefficient(static_cast<int>(v));
+  return c;
+}
+
+PoseState PoseSystem::restState(const Design& d) const {
+  PoseState s;
+  s.u = restDofs(d);
+  s.charts.tangent.resize(net_.numEdges());
+  s.charts.director.resize(net_.numEdges());
+  for (int e = 0; e < net_.numEdges(); ++e) {
+    const EdgeFrame f = net_.restFrame(e, d.restPositions);
+    s.charts.tangent[e] = f.t;
+    s.charts.director[e] = f.d1;
+  }
+  s.loadFactor = 0.0;
+  return s;
+}
+
+void PoseSystem::setState(const PoseState& s) {
+  setCharts(s.charts);
+  loadFactor_ = s.loadFactor;
+}
+
+PoseState PoseSystem::state(const Eigen::VectorXd& u) const { return PoseState{u, charts(), loadFactor_}; }
+
+std::vector<Vec3> PoseSystem::positions(const Eigen::VectorXd& u, const Design& d) const {
   std::vector<Vec3> x(vertexDof_.size());
   for (std::size_t v = 0; v < x.size(); ++v) {
     const int k = vertexDof_[v];
-    if (k < 0) x[v] = heldPosition(static_cast<int>(v));
+    if (k < 0) x[v] = heldPosition(static_cast<int>(v), d);
     else if (D_ == 3) x[v] = u.segment<3>(k);
     else x[v] = fx_.planeOrigin + fx_.planeBasis * u.segment<2>(k);
   }
@@ -180,58 +224,31 @@ Eigen::VectorXd PoseSystem::forceResidual(const Eigen::VectorXd& g) const {
   return r;
 }
 
-// Calls fn(dofs, count) for every stencil with a Hessian, in the fixed order
-// stretch, bend, clamp.
-template <class Fn>
-void PoseSystem::forEachStencilDofs(Fn&& fn) const {
-  int buf[kMaxStencil];
-  auto vtx = [&](int v, int& n) {
-    for (int k = 0; k < D_; ++k) buf[n++] = vertexDof_[v] < 0 ? -1 : vertexDof_[v] + k;
-  };
-  const auto& edges = net_.edges();
-  for (const StretchSt& s : stretch_) {
-    int n = 0;
-    vtx(edges[s.edge].a, n);
-    vtx(edges[s.edge].b, n);
-    fn(buf, n);
-  }
-  for (const BendSt& s : bend_) {
-    int n = 0;
-    vtx(edges[s.e0].a, n);
-    vtx(s.vertex, n);
-    vtx(edges[s.e1].b, n);
-    if (twist_) { buf[n++] = thetaDof(s.e0); buf[n++] = thetaDof(s.e1); }
-    fn(buf, n);
-  }
-  for (const ClampSt& s : clamp_) {
-    int n = 0;
-    vtx(edges[s.edge].a, n);
-    vtx(edges[s.edge].b, n);
-    if (twist_) buf[n++] = thetaDof(s.edge);
-    fn(buf, n);
-  }
-  for (const ConnSt& s : conn_) {
-    int n = 0;
-    vtx(s.vertex, n);
-    for (int i = 0; i < s.k; ++i) {
-      const Edge& e = edges[s.edges[i]];
-      vtx(e.a == s.vertex ? e.b : e.a, n);
-    }
-    if (twist_)
-      for (int i = 0; i < s.k; ++i) buf[n++] = thetaDof(s.edges[i]);
-    fn(buf, n);
-  }
-}
-
+// The simulation Hessian's pattern (lower triangle, full diagonal) and the
+// value slot of every (i >= j) pair of each stencil's unknowns, from the one
+// stencil list (evaluated at the scene's rest state: only structure is used).
 void PoseSystem::buildPattern() {
+  const Design d0 = Design::fromScene(scene_);
+  const std::vector<Vec3> x = d0.restPositions;
+  const Eigen::VectorXd theta = Eigen::VectorXd::Zero(net_.numEdges());
+  const Mat32 B = fx_.planeBasis;
+  const std::vector<double> hc = heldCoefficients();
+  std::vector<std::vector<int>> stencilDofs;
+  withLayout([&](auto Dc, auto TWc) {
+    constexpr int D = decltype(Dc)::value;
+    constexpr bool TW = decltype(TWc)::value;
+    BuildCtx ctx{&x, &theta, &d0, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
+    forEachStencil<D, TW, false>(ctx, [&](const auto&, const LocalStencil& ls, int) {
+      stencilDofs.emplace_back(ls.sdofs, ls.sdofs + ls.ns);
+    });
+  });
   // Column-wise row lists of the lower triangle.
   std::vector<std::vector<int>> cols(nDofs_);
   for (int i = 0; i < nDofs_; ++i) cols[i].push_back(i);  // full diagonal, for shifts
-  forEachStencilDofs([&](const int* dofs, int n) {
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j)
-        if (dofs[i] >= 0 && dofs[j] >= 0 && dofs[i] > dofs[j]) cols[dofs[j]].push_back(dofs[i]);
-  });
+  for (const auto& dofs : stencilDofs)
+    for (int i : dofs)
+      for (int j : dofs)
+        if (i >= 0 && j >= 0 && i > j) cols[j].push_back(i);
   std::vector<int> outer(nDofs_ + 1, 0);
   for (int c = 0; c < nDofs_; ++c) {
     auto& rows = cols[c];
@@ -242,18 +259,16 @@ void PoseSystem::buildPattern() {
   hessian_.resize(nDofs_, nDofs_);
   hessian_.resizeNonZeros(outer[nDofs_]);
   for (int c = 0; c <= nDofs_; ++c) hessian_.outerIndexPtr()[c] = outer[c];
-  for (int c = 0; c < nDofs_; ++c)
-    std::copy(cols[c].begin(), cols[c].end(), hessian_.innerIndexPtr() + outer[c]);
+  for (int c = 0; c < nDofs_; ++c) std::copy(cols[c].begin(), cols[c].end(), hessian_.innerIndexPtr() + outer[c]);
   std::fill(hessian_.valuePtr(), hessian_.valuePtr() + outer[nDofs_], 0.0);
 
   stencils_.clear();
-  stencilDofs_.clear();
   stencilSlots_.clear();
-  forEachStencilDofs([&](const int* dofs, int n) {
+  for (const auto& dofs : stencilDofs) {
     Stencil st;
     st.offset = static_cast<int>(stencilSlots_.size());
-    st.size = n;
-    for (int i = 0; i < n; ++i)
+    st.size = static_cast<int>(dofs.size());
+    for (int i = 0; i < st.size; ++i)
       for (int j = 0; j <= i; ++j) {
         int slot = -1;
         if (dofs[i] >= 0 && dofs[j] >= 0) {
@@ -265,17 +280,17 @@ void PoseSystem::buildPattern() {
         stencilSlots_.push_back(slot);
       }
     stencils_.push_back(st);
-  });
+  }
 }
 
 // Gravity and point forces are linear in the positions: they add to the
 // gradient only (no Hessian) in simulation.
 template <int D, bool TW, class Out>
 void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const {
-  const std::vector<Vec3> x = positions(u);
+  const std::vector<Vec3> x = positions(u, d);
   const Eigen::VectorXd theta = twists(u);
   const Mat32 B = fx_.planeBasis;
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_};
+  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, nullptr};
   double* hv = out.hessian ? out.hessian->valuePtr() : nullptr;
   auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
     using K = std::decay_t<decltype(kern)>;
@@ -307,7 +322,7 @@ void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) con
     out.energy += r.v;
     scatterSim<NX>(r, ls, stencilSlots_.data() + stencils_[sidx].offset, out.gradient, hv);
   };
-  RODMESH_FOR_EACH_STENCIL(D, TW, ctx, visit);
+  forEachStencil<D, TW, false>(ctx, visit);
 
   // External loads: gravity (lumped edge masses) and point forces, scaled by
   // the load factor.
@@ -350,17 +365,9 @@ struct SimOut {
 };
 }  // namespace
 
-#define RODMESH_DISPATCH(FN, ...)                    \
-  do {                                               \
-    if (D_ == 3 && twist_) FN<3, true>(__VA_ARGS__);  \
-    else if (D_ == 3) FN<3, false>(__VA_ARGS__);      \
-    else if (twist_) FN<2, true>(__VA_ARGS__);        \
-    else FN<2, false>(__VA_ARGS__);                   \
-  } while (0)
-
 double PoseSystem::energy(const Eigen::VectorXd& u, const Design& d) const {
   SimOut out;
-  RODMESH_DISPATCH(runSim, u, d, out);
+  withLayout([&](auto Dc, auto TWc) { runSim<decltype(Dc)::value, decltype(TWc)::value>(u, d, out); });
   return out.energy;
 }
 
@@ -373,7 +380,7 @@ void PoseSystem::evaluate(const Eigen::VectorXd& u, const Design& d, double& e, 
     std::fill(hessian_.valuePtr(), hessian_.valuePtr() + hessian_.nonZeros(), 0.0);
     out.hessian = &hessian_;
   }
-  RODMESH_DISPATCH(runSim, u, d, out);
+  withLayout([&](auto Dc, auto TWc) { runSim<decltype(Dc)::value, decltype(TWc)::value>(u, d, out); });
   e = out.energy;
 }
 

@@ -35,16 +35,38 @@
 
 namespace rodmesh {
 
-using Triplet = Eigen::Triplet<double>;
+namespace detail {
+struct BuildCtx;
+}
 
-// Derivatives w.r.t. the joint variables (u, p): value, gradients, Hessian
-// blocks (uu and pp lower triangles, up full). With a direction v (in u-space),
-// the same quantities differentiated along v instead: D_v of gradient and
-// Hessian, i.e. third derivatives of the energy contracted with v.
+// Derivatives of a pose's energy E(u, p) w.r.t. the joint variables (u, p),
+// p in the Design::toVector() layout, in fixed sparsity patterns built once
+// per PoseSystem (PoseSystem::jointPattern): values change, structure never.
+//   energy, gu = dE/du (= F, the equilibrium residual), gp = dE/dp;
+//   Huu = d2E/du2 = dF/du, both triangles stored (full rows);
+//   Hup = d2E/du dp = dF/dp (n x P);
+//   Hpp = d2E/dp2, lower triangle.
+// With a direction v (in u-space) the same quantities differentiated along v
+// (jointDirectional): D_v energy = gu.v, D_v gu = Huu v, and D_v of the three
+// Hessian blocks, i.e. third derivatives of E contracted with v. With v = the
+// multipliers lambda of the equilibrium constraints F = 0, the Hessian blocks
+// are those of lambda^T F, the constraint part of a Lagrangian's Hessian.
 struct JointDerivatives {
   double energy = 0.0;
   Eigen::VectorXd gu, gp;
-  std::vector<Triplet> Huu, Hup, Hpp;
+  Eigen::SparseMatrix<double> Huu, Hup, Hpp;
+};
+
+// The state of one pose that a solve starts from and returns: unknowns,
+// reference-frame charts (the coordinates the twists are measured in) and
+// the load factor they are in equilibrium at.
+struct Charts {
+  std::vector<Vec3> tangent, director;  // per edge
+};
+struct PoseState {
+  Eigen::VectorXd u;
+  Charts charts;
+  double loadFactor = 0.0;
 };
 
 class PoseSystem {
@@ -66,13 +88,25 @@ class PoseSystem {
 
   // Unknowns of the rest configuration (held vertices are not unknowns).
   Eigen::VectorXd restDofs(const Design& d) const;
-  // Full positions (held vertices at their prescribed positions) and edge twist
-  // angles (zeros when twist is not simulated). twists() reports the unknown
-  // itself; materialTwists() the angle of each edge's material frame from its
-  // rest frame transported to the current tangent (chart-independent).
-  std::vector<Vec3> positions(const Eigen::VectorXd& u) const;
+  // The rest state of a design: rest unknowns, charts at the design's rest
+  // frames, load factor 0.
+  PoseState restState(const Design& d) const;
+  // Installs a state's charts (and load factor) / captures the current ones with u.
+  void setState(const PoseState& s);
+  PoseState state(const Eigen::VectorXd& u) const;
+  // Full positions (held vertices at their prescribed positions under design
+  // d) and edge twist angles (zeros when twist is not simulated). twists()
+  // reports the unknown itself; materialTwists() the angle of each edge's
+  // material frame from d's rest frame transported to the current tangent
+  // (chart-independent).
+  std::vector<Vec3> positions(const Eigen::VectorXd& u, const Design& d) const;
   Eigen::VectorXd twists(const Eigen::VectorXd& u) const;
-  Eigen::VectorXd materialTwists(const Eigen::VectorXd& u) const;
+  Eigen::VectorXd materialTwists(const Eigen::VectorXd& u, const Design& d) const;
+  // Held vertices: whether v is held, and d(position of v)/d(rest position of
+  // v): 1 when held at its rest position under the design (clamped, or fixed
+  // without a position), 1 - load factor when fixed at an explicit position.
+  bool isHeld(int v) const { return held_[v]; }
+  double heldDesignCoefficient(int v) const;
   // Unknowns from full positions and twists (inverse of the above).
   Eigen::VectorXd dofsFrom(const std::vector<Vec3>& x, const Eigen::VectorXd& theta) const;
 
@@ -83,9 +117,19 @@ class PoseSystem {
                 bool wantHessian);
   const Eigen::SparseMatrix<double>& hessian() const { return hessian_; }
 
-  // Joint derivatives w.r.t. (u, p); see JointDerivatives.
+  // Joint derivatives w.r.t. (u, p); see JointDerivatives. evaluateJoint
+  // fills `out` in the fixed patterns (allocated on first use, then only
+  // values are written); with a direction v, the directional derivatives.
+  void evaluateJoint(const Eigen::VectorXd& u, const Design& d, JointDerivatives& out,
+                     const Eigen::VectorXd* v = nullptr) const;
   JointDerivatives joint(const Eigen::VectorXd& u, const Design& d) const;
   JointDerivatives jointDirectional(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& v) const;
+  // The fixed patterns (values zero): Huu full, Hup, Hpp lower.
+  const JointDerivatives& jointPattern() const;
+  // First-order products for adjoint gradients, without second derivatives
+  // of the design: (dF/dp)^T lambda (size P) and, if asked, (dF/du) lambda.
+  Eigen::VectorXd designForceProduct(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& lambda,
+                                     Eigen::VectorXd* hessianTimesLambda = nullptr) const;
 
   // Reference-frame charts (one per edge): an edge's reference director is the
   // chart director transported from the chart tangent to its current tangent,
@@ -95,13 +139,11 @@ class PoseSystem {
   // reanchorCharts moves the chart of every edge that has turned more than
   // acos(cosLimit) from it to its current frame, which leaves the material
   // frames, the energy and the equilibria unchanged (a change of coordinates).
-  struct Charts {
-    std::vector<Vec3> tangent, director;
-  };
+  using Charts = rodmesh::Charts;
   void resetCharts(const Design& d);
   Charts charts() const { return {chartT_, chartD_}; }
   void setCharts(const Charts& c) { chartT_ = c.tangent; chartD_ = c.director; }
-  bool reanchorCharts(const Eigen::VectorXd& u, double cosLimit = -0.25);
+  bool reanchorCharts(const Eigen::VectorXd& u, const Design& d, double cosLimit = -0.25);
   const std::vector<Vec3>& chartTangents() const { return chartT_; }
 
   // Length that turns moments into forces in residual norms: mean rest edge length.
@@ -133,19 +175,25 @@ class PoseSystem {
     int size = 0;
   };
 
-  Vec3 heldPosition(int v) const;
+  Vec3 heldPosition(int v, const Design& d) const;
   bool use(Terms t) const { return filter_ == Terms::All || filter_ == t; }
   void buildPattern();
-  template <class Fn>
-  void forEachStencilDofs(Fn&& fn) const;
+  void buildJointPattern() const;
+  std::vector<double> heldCoefficients() const;
 
-  template <int D, bool TW, int K, class Ctx, class Visit>
-  void visitConnection(const ConnSt& s, const Ctx& ctx, Visit& visit, int sidx) const;
+  template <int D, bool TW, bool WithGravity, class Visit>
+  void forEachStencil(const detail::BuildCtx& ctx, Visit&& visit) const;
+  template <int D, bool TW, int K, class Visit>
+  void visitConnection(const ConnSt& s, const detail::BuildCtx& ctx, Visit& visit, int sidx) const;
+  template <class F>
+  void withLayout(F&& f) const;
   template <int D, bool TW, class Out>
   void runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const;
-  void jointImpl(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v, JointDerivatives& out) const;
   template <int D, bool TW, class T>
   void runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v, JointDerivatives& out) const;
+  template <int D, bool TW>
+  void runProduct(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& lambda, Eigen::VectorXd& outP,
+                  Eigen::VectorXd* outU) const;
 
   const Scene& scene_;
   const RodNetwork& net_;
@@ -156,13 +204,13 @@ class PoseSystem {
   int nVertexDofs_ = 0, nDofs_ = 0;
   double loadFactor_ = 1.0;
   double momentArm_ = 1.0;
-  Terms filter_ = Terms::All;
+  mutable Terms filter_ = Terms::All;  // mutable: patterns are always built with every term
 
   std::vector<Vec3> chartT_, chartD_;  // per edge
-  std::vector<EdgeFrame> sceneRestFrames_;  // rest frames of the scene's design (twist output)
   std::vector<int> vertexDof_;
   std::vector<bool> held_;
-  std::vector<Vec3> heldTarget_;  // prescribed position at load factor 1
+  std::vector<bool> heldExplicit_;  // held at an explicit position (not at rest)
+  std::vector<Vec3> heldTarget_;  // explicit prescribed position at load factor 1
   std::vector<Vec3> pointForce_;  // summed per vertex
   std::vector<std::pair<int, double>> edgeMoment_;  // (edge, twisting moment along the edge direction)
 
@@ -177,6 +225,15 @@ class PoseSystem {
   std::vector<int> stencilSlots_;
   std::vector<Stencil> stencils_;
   Eigen::SparseMatrix<double> hessian_;
+
+  // Joint patterns (built on first use): per stencil (gravity included) the
+  // value slot of each (global i, global j) pair of its JointMap, in one
+  // index space [Huu values | Hup values | Hpp values], -1 for none.
+  mutable bool jointReady_ = false;
+  mutable JointDerivatives jointPattern_;
+  mutable std::vector<int> jointSlots_;
+  mutable std::vector<Stencil> jointStencils_;
+  mutable int jointUU_ = 0, jointUP_ = 0;
 };
 
 }  // namespace rodmesh

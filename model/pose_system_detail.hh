@@ -56,7 +56,9 @@ struct LocalStencil {
   LinMap xmap[kMaxLocal];
   LinMap pmap[kMaxLocal];
   int ns = 0;
-  int sdofs[kMaxStencil];  // global unknown per stencil position, -1 if held
+  int sdofs[kMaxStencil];    // global unknown per stencil position, -1 if held
+  int svertex[kMaxStencil];  // vertex whose coordinate a position is, -1 for a twist
+  int scoord[kMaxStencil];   // which of the vertex's D coordinates
 };
 
 // Evaluates kernel `k` on the local stencil with N seeded variables: the x
@@ -121,61 +123,6 @@ void scatterSim(const ad::Hess<N, double>& r, const LocalStencil& ls, const int*
   }
 }
 
-// Adds a joint-mode result into gradients and Hessian-block triplets.
-template <int N, class T>
-void scatterJoint(const ad::Hess<N, T>& r, const LocalStencil& ls, bool derivative, JointDerivatives& out) {
-  const int nx = ls.nx;
-  auto globalX = [&](int k, int a, int& I, double& c) {
-    const int pos = ls.xmap[k].idx[a];
-    if (pos < 0) return false;
-    I = ls.sdofs[pos];
-    c = ls.xmap[k].coef[a];
-    return I >= 0;
-  };
-  auto globalP = [&](int k, int a, int& I, double& c) {
-    I = ls.pmap[k].idx[a];
-    c = ls.pmap[k].coef[a];
-    return I >= 0;
-  };
-  out.energy += partOf(r.v, derivative);
-  for (int k = 0; k < N; ++k) {
-    const double gk = partOf(r.g[k], derivative);
-    if (gk == 0.0) continue;
-    for (int a = 0; a < 2; ++a) {
-      int I;
-      double c;
-      if (k < nx) {
-        if (globalX(k, a, I, c)) out.gu[I] += c * gk;
-      } else if (globalP(k - nx, a, I, c)) {
-        out.gp[I] += c * gk;
-      }
-    }
-  }
-  for (int k = 0; k < N; ++k)
-    for (int l = 0; l < N; ++l) {
-      const double h = partOf(r.h[ad::Hess<N, T>::hidx(k, l)], derivative);
-      if (h == 0.0) continue;
-      for (int a = 0; a < 2; ++a)
-        for (int b = 0; b < 2; ++b) {
-          int I, J;
-          double ca, cb;
-          const bool kx = k < nx, lx = l < nx;
-          const bool okI = kx ? globalX(k, a, I, ca) : globalP(k - nx, a, I, ca);
-          if (!okI) continue;
-          const bool okJ = lx ? globalX(l, b, J, cb) : globalP(l - nx, b, J, cb);
-          if (!okJ) continue;
-          const double v = ca * cb * h;
-          if (kx && lx) {
-            if (I >= J) out.Huu.emplace_back(I, J, v);
-          } else if (kx && !lx) {
-            out.Hup.emplace_back(I, J, v);
-          } else if (!kx && !lx) {
-            if (I >= J) out.Hpp.emplace_back(I, J, v);
-          }
-        }
-    }
-}
-
 // ------------------------------------------------------------------------
 // Local stencil builders: values and maps of each kernel's local variables.
 
@@ -189,17 +136,27 @@ struct BuildCtx {
   int D;
   bool twist;
   int nThetaBase;  // first theta unknown
+  // Per vertex, for held vertices: d(position)/d(rest position of the same
+  // vertex) under the current load factor (1 when held at its rest position,
+  // 1 - load factor when held at an explicit position); unused for free ones.
+  const std::vector<double>* heldCoef = nullptr;
 };
 
 // Appends vertex v's unknowns to the stencil; returns its first position.
 inline int addVertex(LocalStencil& ls, const BuildCtx& c, int v) {
   const int pos = ls.ns;
   const int k = (*c.vdof)[v];
-  for (int i = 0; i < c.D; ++i) ls.sdofs[ls.ns++] = k < 0 ? -1 : k + i;
+  for (int i = 0; i < c.D; ++i) {
+    ls.svertex[ls.ns] = v;
+    ls.scoord[ls.ns] = i;
+    ls.sdofs[ls.ns++] = k < 0 ? -1 : k + i;
+  }
   return pos;
 }
 inline int addTheta(LocalStencil& ls, const BuildCtx& c, int e) {
   const int pos = ls.ns;
+  ls.svertex[ls.ns] = -1;
+  ls.scoord[ls.ns] = 0;
   ls.sdofs[ls.ns++] = c.nThetaBase + e;
   return pos;
 }
@@ -375,103 +332,231 @@ template <int D, bool TW> struct KernelSize<GravityK<D, TW>> { static constexpr 
 template <int D, bool TW, int K>
 struct KernelSize<ConnectionK<D, TW, K>> { static constexpr int nx = K * D + (TW ? K : 0), np = 5 * K + 2; };
 
-}  // namespace rodmesh::detail
 
-// Visits every energy stencil: builds its LocalStencil and kernel and hands
-// them to `visit(kernel, stencil, stencilIndexOrMinus1)`.
-#define RODMESH_FOR_EACH_STENCIL(D, TW, CTX, VISIT)                                                    \
-  do {                                                                                                 \
-    const auto& edges_ = net_.edges();                                                                 \
-    const double E_ = scene_.material.youngModulus, G_ = scene_.material.shearModulus();               \
-    int sidx_ = 0;                                                                                     \
-    if (use(Terms::Stretch))                                                                           \
-      for (const StretchSt& s : stretch_) {                                                            \
-        LocalStencil ls;                                                                               \
-        const Edge& ed = edges_[s.edge];                                                               \
-        const int pa = addVertex(ls, CTX, ed.a), pb = addVertex(ls, CTX, ed.b);                        \
-        StretchK<D, TW> kern{{E_}, addEdgeVars(ls, CTX, ed.a, ed.b, pa, pb), (CTX).B};                 \
-        addRestEdge(ls, CTX, ed.a, ed.b);                                                              \
-        addRadii(ls, CTX, ed.a);                                                                       \
-        addRadii(ls, CTX, ed.b);                                                                       \
-        VISIT(kern, ls, sidx_);                                                                        \
-        ++sidx_;                                                                                       \
-      }                                                                                                \
-    else                                                                                               \
-      sidx_ += static_cast<int>(stretch_.size());                                                      \
-    if (use(Terms::BendTwist))                                                                         \
-      for (const BendSt& s : bend_) {                                                                  \
-        LocalStencil ls;                                                                               \
-        const int a = edges_[s.e0].a, v = s.vertex, c = edges_[s.e1].b;                                \
-        const int pa = addVertex(ls, CTX, a), pv = addVertex(ls, CTX, v), pc = addVertex(ls, CTX, c);  \
-        BendK<D, TW> kern;                                                                             \
-        kern.k.n0 = net_.edgeNormals()[s.e0];                                                          \
-        kern.k.n1 = net_.edgeNormals()[s.e1];                                                          \
-        kern.k.chartT0 = chartT_[s.e0];                                                                \
-        kern.k.chartD0 = chartD_[s.e0];                                                                \
-        kern.k.chartT1 = chartT_[s.e1];                                                                \
-        kern.k.chartD1 = chartD_[s.e1];                                                                \
-        kern.k.youngModulus = E_;                                                                      \
-        kern.k.shearModulus = G_;                                                                      \
-        kern.k.bend = fx_.has(Effect::Bend);                                                           \
-        kern.k.twist = TW;                                                                             \
-        kern.B = (CTX).B;                                                                              \
-        kern.off0 = addEdgeVars(ls, CTX, a, v, pa, pv);                                                \
-        kern.off1 = addEdgeVars(ls, CTX, v, c, pv, pc);                                                \
-        if (TW) {                                                                                      \
-          const int t0 = addTheta(ls, CTX, s.e0), t1 = addTheta(ls, CTX, s.e1);                        \
-          addThetaVar(ls, CTX, s.e0, t0);                                                              \
-          addThetaVar(ls, CTX, s.e1, t1);                                                              \
-        }                                                                                              \
-        addRestEdge(ls, CTX, a, v);                                                                    \
-        addRestEdge(ls, CTX, v, c);                                                                    \
-        addRadii(ls, CTX, v);                                                                          \
-        VISIT(kern, ls, sidx_);                                                                        \
-        ++sidx_;                                                                                       \
-      }                                                                                                \
-    else                                                                                               \
-      sidx_ += static_cast<int>(bend_.size());                                                         \
-    if (use(Terms::Clamp))                                                                             \
-      for (const ClampSt& s : clamp_) {                                                                \
-        LocalStencil ls;                                                                               \
-        const Edge& ed = edges_[s.edge];                                                               \
-        const int pa = addVertex(ls, CTX, ed.a), pb = addVertex(ls, CTX, ed.b);                        \
-        ClampK<D, TW> kern;                                                                            \
-        kern.k.n = net_.edgeNormals()[s.edge];                                                         \
-        kern.k.chartT = chartT_[s.edge];                                                               \
-        kern.k.chartD = chartD_[s.edge];                                                               \
-        kern.k.youngModulus = E_;                                                                      \
-        kern.k.shearModulus = G_;                                                                      \
-        kern.k.bend = fx_.has(Effect::Bend);                                                           \
-        kern.k.twist = TW;                                                                             \
-        kern.B = (CTX).B;                                                                              \
-        kern.off = addEdgeVars(ls, CTX, ed.a, ed.b, pa, pb);                                           \
-        if (TW) addThetaVar(ls, CTX, s.edge, addTheta(ls, CTX, s.edge));                               \
-        addRestEdge(ls, CTX, ed.a, ed.b);                                                              \
-        addRadii(ls, CTX, s.vertex);                                                                   \
-        VISIT(kern, ls, sidx_);                                                                        \
-        ++sidx_;                                                                                       \
-      }                                                                                                \
-    else                                                                                               \
-      sidx_ += static_cast<int>(clamp_.size());                                                        \
-    if (use(Terms::Connection))                                                                        \
-      for (const ConnSt& s : conn_) {                                                                  \
-        switch (s.k) {                                                                                 \
-          case 2: visitConnection<D, TW, 2>(s, CTX, VISIT, sidx_); break;                              \
-          case 3: visitConnection<D, TW, 3>(s, CTX, VISIT, sidx_); break;                              \
-          case 4: visitConnection<D, TW, 4>(s, CTX, VISIT, sidx_); break;                              \
-          case 5: visitConnection<D, TW, 5>(s, CTX, VISIT, sidx_); break;                              \
-          case 6: visitConnection<D, TW, 6>(s, CTX, VISIT, sidx_); break;                              \
-          default: break;                                                                              \
-        }                                                                                              \
-        ++sidx_;                                                                                       \
-      }                                                                                                \
-  } while (0)
+
+// ------------------------------------------------------------------------
+// Joint (u, p) view of a stencil: the global variables it touches (unknowns
+// u and design parameters p, in a fixed order given by the stencil's
+// structure only) and every local variable as a linear combination of them.
+// The positions of held vertices depend on the design (contract §4: a vertex
+// held without an explicit position sits at its rest position under the
+// current design), so their local coordinates map to rest-position
+// parameters. Terms with a zero coefficient are kept: the structure never
+// depends on values.
+
+constexpr int kMaxGlobal = 64;  // globals per stencil (a six-valent connection with twist needs 62)
+constexpr int kMaxTerms = 6;    // globals per local variable
+
+struct JointMap {
+  int ng = 0;
+  bool isP[kMaxGlobal];  // false: unknown u, true: design parameter p
+  int index[kMaxGlobal];
+  int nterms[2 * kMaxLocal];
+  int tg[2 * kMaxLocal][kMaxTerms];
+  double tc[2 * kMaxLocal][kMaxTerms];
+
+  int global(bool p, int idx) {
+    for (int i = 0; i < ng; ++i)
+      if (isP[i] == p && index[i] == idx) return i;
+    isP[ng] = p;
+    index[ng] = idx;
+    return ng++;
+  }
+  void addTerm(int k, int g, double c) {
+    for (int t = 0; t < nterms[k]; ++t)
+      if (tg[k][t] == g) {
+        tc[k][t] += c;
+        return;
+      }
+    tg[k][nterms[k]] = g;
+    tc[k][nterms[k]++] = c;
+  }
+};
+
+// Local variables 0..nx-1 are the x part, nx..nx+np-1 the p part.
+inline void buildJointMap(const LocalStencil& ls, const BuildCtx& c, JointMap& m) {
+  m.ng = 0;
+  // Unknowns first, in stencil order, then design parameters.
+  for (int i = 0; i < ls.ns; ++i)
+    if (ls.sdofs[i] >= 0) m.global(false, ls.sdofs[i]);
+  for (int k = 0; k < ls.nx; ++k) {
+    m.nterms[k] = 0;
+    for (int a = 0; a < 2; ++a) {
+      const int pos = ls.xmap[k].idx[a];
+      if (pos < 0) continue;
+      const double coef = ls.xmap[k].coef[a];
+      if (ls.sdofs[pos] >= 0) {
+        m.addTerm(k, m.global(false, ls.sdofs[pos]), coef);
+        continue;
+      }
+      const int v = ls.svertex[pos];
+      if (v < 0) continue;
+      // Held vertex: local coordinate i = (B^T x)_i (planar) or x_i (3D),
+      // with x = heldCoef * rest + constant.
+      const double hc = (*c.heldCoef)[v];
+      const int i = ls.scoord[pos];
+      for (int j = 0; j < 3; ++j) {
+        const double b = c.D == 3 ? (i == j ? 1.0 : 0.0) : (*c.B)(j, i);
+        if (c.D == 3 && i != j) continue;
+        m.addTerm(k, m.global(true, Design::restIndex(v, j)), coef * hc * b);
+      }
+    }
+  }
+  for (int k = 0; k < ls.np; ++k) {
+    const int kk = ls.nx + k;
+    m.nterms[kk] = 0;
+    for (int a = 0; a < 2; ++a)
+      if (ls.pmap[k].idx[a] >= 0) m.addTerm(kk, m.global(true, ls.pmap[k].idx[a]), ls.pmap[k].coef[a]);
+  }
+}
+
+// Dense gradient and Hessian of one stencil over its globals.
+struct GlobalBlock {
+  double g[kMaxGlobal];
+  double H[kMaxGlobal][kMaxGlobal];
+};
+
+// Maps a kernel result over local variables onto the stencil's globals
+// (part: value or directional derivative of each entry).
+template <int N, class T>
+void toGlobals(const ad::Hess<N, T>& r, const JointMap& m, int nLocal, bool derivative, GlobalBlock& out) {
+  for (int i = 0; i < m.ng; ++i) {
+    out.g[i] = 0.0;
+    for (int j = 0; j < m.ng; ++j) out.H[i][j] = 0.0;
+  }
+  for (int k = 0; k < nLocal; ++k) {
+    const double gk = partOf(r.g[k], derivative);
+    if (gk == 0.0) continue;
+    for (int t = 0; t < m.nterms[k]; ++t) out.g[m.tg[k][t]] += m.tc[k][t] * gk;
+  }
+  for (int k = 0; k < nLocal; ++k)
+    for (int l = 0; l <= k; ++l) {
+      const double h = partOf(r.h[ad::Hess<N, T>::hidx(k, l)], derivative);
+      if (h == 0.0) continue;
+      for (int a = 0; a < m.nterms[k]; ++a)
+        for (int b = 0; b < m.nterms[l]; ++b) {
+          const double v = m.tc[k][a] * m.tc[l][b] * h;
+          out.H[m.tg[k][a]][m.tg[l][b]] += v;
+          if (k != l) out.H[m.tg[l][b]][m.tg[k][a]] += v;
+        }
+    }
+}
+
+}  // namespace rodmesh::detail
 
 namespace rodmesh {
 using namespace detail;
 
-template <int D, bool TW, int K, class Ctx, class Visit>
-void PoseSystem::visitConnection(const ConnSt& s, const Ctx& ctx, Visit& visit, int sidx) const {
+// The one list of energy stencils, in a fixed order (stretch, bend-twist,
+// clamp, connection, then, when asked, gravity): builds each stencil's
+// LocalStencil and kernel and hands them to visit(kernel, stencil, index).
+// Pattern construction, simulation and joint derivatives all walk this list.
+template <int D, bool TW, bool WithGravity, class Visit>
+void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
+  const auto& edges = net_.edges();
+  const double E = scene_.material.youngModulus, G = scene_.material.shearModulus();
+  int sidx = 0;
+  if (use(Terms::Stretch))
+    for (const StretchSt& s : stretch_) {
+      LocalStencil ls;
+      const Edge& ed = edges[s.edge];
+      const int pa = addVertex(ls, ctx, ed.a), pb = addVertex(ls, ctx, ed.b);
+      StretchK<D, TW> kern{{E}, addEdgeVars(ls, ctx, ed.a, ed.b, pa, pb), ctx.B};
+      addRestEdge(ls, ctx, ed.a, ed.b);
+      addRadii(ls, ctx, ed.a);
+      addRadii(ls, ctx, ed.b);
+      visit(kern, ls, sidx++);
+    }
+  else
+    sidx += static_cast<int>(stretch_.size());
+  if (use(Terms::BendTwist))
+    for (const BendSt& s : bend_) {
+      LocalStencil ls;
+      const int a = edges[s.e0].a, v = s.vertex, c = edges[s.e1].b;
+      const int pa = addVertex(ls, ctx, a), pv = addVertex(ls, ctx, v), pc = addVertex(ls, ctx, c);
+      BendK<D, TW> kern;
+      kern.k.n0 = net_.edgeNormals()[s.e0];
+      kern.k.n1 = net_.edgeNormals()[s.e1];
+      kern.k.chartT0 = chartT_[s.e0];
+      kern.k.chartD0 = chartD_[s.e0];
+      kern.k.chartT1 = chartT_[s.e1];
+      kern.k.chartD1 = chartD_[s.e1];
+      kern.k.youngModulus = E;
+      kern.k.shearModulus = G;
+      kern.k.bend = fx_.has(Effect::Bend);
+      kern.k.twist = TW;
+      kern.B = ctx.B;
+      kern.off0 = addEdgeVars(ls, ctx, a, v, pa, pv);
+      kern.off1 = addEdgeVars(ls, ctx, v, c, pv, pc);
+      if constexpr (TW) {
+        const int t0 = addTheta(ls, ctx, s.e0), t1 = addTheta(ls, ctx, s.e1);
+        addThetaVar(ls, ctx, s.e0, t0);
+        addThetaVar(ls, ctx, s.e1, t1);
+      }
+      addRestEdge(ls, ctx, a, v);
+      addRestEdge(ls, ctx, v, c);
+      addRadii(ls, ctx, v);
+      visit(kern, ls, sidx++);
+    }
+  else
+    sidx += static_cast<int>(bend_.size());
+  if (use(Terms::Clamp))
+    for (const ClampSt& s : clamp_) {
+      LocalStencil ls;
+      const Edge& ed = edges[s.edge];
+      const int pa = addVertex(ls, ctx, ed.a), pb = addVertex(ls, ctx, ed.b);
+      ClampK<D, TW> kern;
+      kern.k.n = net_.edgeNormals()[s.edge];
+      kern.k.chartT = chartT_[s.edge];
+      kern.k.chartD = chartD_[s.edge];
+      kern.k.youngModulus = E;
+      kern.k.shearModulus = G;
+      kern.k.bend = fx_.has(Effect::Bend);
+      kern.k.twist = TW;
+      kern.B = ctx.B;
+      kern.off = addEdgeVars(ls, ctx, ed.a, ed.b, pa, pb);
+      if constexpr (TW) addThetaVar(ls, ctx, s.edge, addTheta(ls, ctx, s.edge));
+      addRestEdge(ls, ctx, ed.a, ed.b);
+      addRadii(ls, ctx, s.vertex);
+      visit(kern, ls, sidx++);
+    }
+  else
+    sidx += static_cast<int>(clamp_.size());
+  if (use(Terms::Connection))
+    for (const ConnSt& s : conn_) {
+      switch (s.k) {
+        case 2: visitConnection<D, TW, 2>(s, ctx, visit, sidx); break;
+        case 3: visitConnection<D, TW, 3>(s, ctx, visit, sidx); break;
+        case 4: visitConnection<D, TW, 4>(s, ctx, visit, sidx); break;
+        case 5: visitConnection<D, TW, 5>(s, ctx, visit, sidx); break;
+        case 6: visitConnection<D, TW, 6>(s, ctx, visit, sidx); break;
+        default: break;
+      }
+      ++sidx;
+    }
+  else
+    sidx += static_cast<int>(conn_.size());
+  if constexpr (WithGravity) {
+    if (!fx_.has(Effect::Gravity) || !use(Terms::Gravity)) return;
+    GravityK<D, TW> kern;
+    kern.k.g = loadFactor_ * *scene_.gravity;
+    kern.k.density = scene_.material.density;
+    kern.B = ctx.B;
+    for (const Edge& e : edges) {
+      LocalStencil ls;
+      const int pa = addVertex(ls, ctx, e.a), pb = addVertex(ls, ctx, e.b);
+      kern.offA = addPointVars(ls, ctx, e.a, pa);
+      kern.offB = addPointVars(ls, ctx, e.b, pb);
+      addRestEdge(ls, ctx, e.a, e.b);
+      addRadii(ls, ctx, e.a);
+      addRadii(ls, ctx, e.b);
+      visit(kern, ls, sidx++);
+    }
+  }
+}
+
+template <int D, bool TW, int K, class Visit>
+void PoseSystem::visitConnection(const ConnSt& s, const BuildCtx& ctx, Visit& visit, int sidx) const {
   const auto& edges = net_.edges();
   LocalStencil ls;
   const int pc = addVertex(ls, ctx, s.vertex);
@@ -503,4 +588,15 @@ void PoseSystem::visitConnection(const ConnSt& s, const Ctx& ctx, Visit& visit, 
   for (int i = 0; i < K; ++i) addRadii(ls, ctx, far[i]);
   visit(kern, ls, sidx);
 }
+
+// Calls f(std::integral_constant<int, D>, std::bool_constant<TW>) for the
+// system's layout: the one place the run-time layout picks a kernel build.
+template <class F>
+void PoseSystem::withLayout(F&& f) const {
+  if (D_ == 3 && twist_) f(std::integral_constant<int, 3>{}, std::true_type{});
+  else if (D_ == 3) f(std::integral_constant<int, 3>{}, std::false_type{});
+  else if (twist_) f(std::integral_constant<int, 2>{}, std::true_type{});
+  else f(std::integral_constant<int, 2>{}, std::false_type{});
+}
+
 }  // namespace rodmesh

@@ -277,7 +277,7 @@ bool BackwardEuler::advanceTo(double t) {
       rep_.steps++;
       rep_.minStepTaken = rep_.steps == 1 ? h : std::min(rep_.minStepTaken, h);
       rep_.maxStepTaken = std::max(rep_.maxStepTaken, h);
-      if (sys_.reanchorCharts(u_)) rep_.chartUpdates++;
+      if (sys_.reanchorCharts(u_, design_)) rep_.chartUpdates++;
       const bool easy = tr.iterations <= opt_.easyIterations && tr.deviation <= 0.5 * opt_.maxDisplacement &&
                         tr.twistChange <= 0.5 * opt_.maxTwistChange;
       if (easy && !clipped) h_ = std::min(h_ * opt_.growFactor, opt_.maxStep);
@@ -311,12 +311,12 @@ DynamicsReport simulateDynamics(PoseSystem& system, const Design& design, const 
       // Keep the last state reached, with its own time.
       if (frames.time.empty() || be.time() > frames.time.back()) {
         frames.time.push_back(be.time());
-        frames.positions.push_back(system.positions(be.dofs()));
+        frames.positions.push_back(system.positions(be.dofs(), design));
       }
       break;
     }
     frames.time.push_back(t);
-    frames.positions.push_back(system.positions(be.dofs()));
+    frames.positions.push_back(system.positions(be.dofs(), design));
     if (progress) progress(k, t, be.report());
   }
   frames.finalDofs = be.dofs();

@@ -78,14 +78,15 @@ SimulationResult simulateAll(SceneModel& model, const Design& design, const Newt
     const std::string unsupported = unsupportedLoad(model.scene(), model.network(), model.effects(), p, design);
     if (!unsupported.empty()) {
       r.report.converged = false;
+      r.report.outcome = Outcome::InvalidProblem;
       r.report.message = unsupported;
       r.report.loadScale = r.report.residualNorm = loadScale(sys, design);
       r.report.relativeResidual = 1.0;
     } else {
       r.report = solveEquilibrium(sys, design, r.dofs, options);
     }
-    r.positions = sys.positions(r.dofs);
-    r.twist = sys.materialTwists(r.dofs);
+    r.positions = sys.positions(r.dofs, design);
+    r.twist = sys.materialTwists(r.dofs, design);
     const auto& target = model.scene().poses[p].target;
     if (!target.empty()) r.rmsError = rmsError(r.positions, target);
     if (model.effects().planar && r.report.converged)

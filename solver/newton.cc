@@ -49,6 +49,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
   if (n == 0) {
     system.evaluate(u, design, E, g, false);
     rep.converged = true;
+    rep.outcome = Outcome::Converged;
     rep.energy = E;
     rep.message = "no unknowns";
     return rep;
@@ -67,6 +68,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
   system.evaluate(u, design, E, g, true);
   rep.assemblySeconds += since(ta);
   if (!std::isfinite(E) || !finite(g)) {
+    rep.outcome = Outcome::NumericalFailure;
     rep.message = "energy or forces are not finite at the initial guess";
     rep.timeSeconds = since(t0);
     return rep;
@@ -129,12 +131,14 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     const bool small = res <= tolerance * scale || res <= floorForce;
     if (small && negative == 0) {
       rep.converged = true;
+      rep.outcome = Outcome::Converged;
       rep.message = "force residual below tolerance";
       break;
     }
     if (it >= opt.maxIterations) {
       rep.message = small ? "converged to an unstable equilibrium (negative curvature persists)" : "iteration limit reached";
       rep.converged = small;
+      rep.outcome = small ? Outcome::Converged : Outcome::MaxIterations;
       break;
     }
 
@@ -170,6 +174,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     }
     if (small) {
       rep.converged = true;
+      rep.outcome = Outcome::Converged;
       rep.unstable = true;
       rep.message = "force residual below tolerance, but the equilibrium is unstable (negative curvature)";
       break;
@@ -208,6 +213,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
       rep.factorSeconds += since(ta);
       rep.hessianModifications++;
       if (!haveDir) {
+        rep.outcome = Outcome::NumericalFailure;
         rep.message = "could not find a descent direction (Hessian shift exceeded its limit)";
         break;
       }
@@ -219,6 +225,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     if (negative == 0 && singular == 0 && tau == 0.0 && res <= std::sqrt(tolerance) * scale &&
         d.lpNorm<Eigen::Infinity>() <= 1e3 * eps * u.lpNorm<Eigen::Infinity>()) {
       rep.converged = true;
+      rep.outcome = Outcome::Converged;
       rep.roundoff = true;
       rep.message = "Newton correction at the round-off level of the unknowns";
       break;
@@ -257,6 +264,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
       accepted = std::isfinite(Etrial) && finite(gTrial);
     }
     if (!accepted) {
+      rep.outcome = Outcome::Stalled;
       rep.message = "line search failed: no step along the descent direction lowers the energy";
       break;
     }
@@ -270,7 +278,7 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     g = gTrial;
     // Edges that turned far from their reference-frame chart get a new one
     // (same energy, new coordinates): the derivatives are re-evaluated.
-    if (system.reanchorCharts(u)) {
+    if (system.reanchorCharts(u, design)) {
       rep.chartUpdates++;
       system.evaluate(u, design, E, g, true);
     }
@@ -281,11 +289,22 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
 
 NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u,
                               const NewtonOptions& opt) {
-  const auto t0 = Clock::now();
+  PoseState state = system.restState(design);
+  state.u = u;
   const double saved = system.loadFactor();
+  const NewtonReport r = solveEquilibrium(system, design, state, opt);
+  u = state.u;
+  system.setLoadFactor(saved);
+  return r;
+}
+
+NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state,
+                              const NewtonOptions& opt) {
+  const auto t0 = Clock::now();
   system.setLoadFactor(1.0);
-  system.resetCharts(design);
-  const PoseSystem::Charts restCharts = system.charts();
+  system.setCharts(state.charts);
+  Eigen::VectorXd& u = state.u;
+  const PoseState rest = system.restState(design);
   const double scale = loadScale(system, design);
   NewtonReport total;
   total.loadScale = scale;
@@ -295,37 +314,46 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
     total.hessianModifications += r.hessianModifications;
     total.backtracks += r.backtracks;
     total.escapes += r.escapes;
+    total.chartUpdates += r.chartUpdates;
     total.assemblySeconds += r.assemblySeconds;
     total.factorSeconds += r.factorSeconds;
     total.residualHistory.insert(total.residualHistory.end(), r.residualHistory.begin(), r.residualHistory.end());
     total.loadSteps++;
   };
+  auto finishState = [&](double lam) {
+    state.charts = system.charts();
+    state.loadFactor = lam;
+  };
   if (scale <= system.roundoffForce(design)) {
     // No load at all: the rest configuration is the equilibrium.
     total.converged = true;
+    total.outcome = Outcome::Converged;
     total.message = "no load: rest configuration";
+    u = rest.u;
+    system.setCharts(rest.charts);
     Eigen::VectorXd g;
     double e;
     system.evaluate(u, design, e, g, false);
     total.residualNorm = system.forceResidual(g).norm();
     total.energy = e;
     total.timeSeconds = since(t0);
-    system.setLoadFactor(saved);
+    finishState(1.0);
     return total;
   }
 
-  // Full load first.
+  // Full load first, from the given state.
   Eigen::VectorXd uTry = u;
   NewtonReport r = newtonSolve(system, design, uTry, scale, opt.tolerance, opt);
   merge(r);
+  double reached = 1.0;
   if (r.converged) {
     u = uTry;
   } else {
     // Adaptive continuation in the load factor, from the rest state; the
     // reference-frame charts travel with the state they belong to.
-    system.setCharts(restCharts);
-    Eigen::VectorXd uCur = system.restDofs(design);
-    PoseSystem::Charts chartsCur = restCharts;
+    system.setCharts(rest.charts);
+    Eigen::VectorXd uCur = rest.u;
+    PoseSystem::Charts chartsCur = rest.charts;
     double lam = 0.0, step = 0.5;
     const double minStep = std::ldexp(1.0, -opt.maxLoadHalvings);
     // Intermediate load steps need not be tight, but never sloppy.
@@ -351,12 +379,14 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
     }
     u = uCur;
     system.setCharts(chartsCur);
+    reached = lam;
     if (failed) {
       std::ostringstream os;
       os << "did not converge: the load step fell below " << minStep << " at load factor " << lam << " (last: "
          << r.message << ")";
       r.message = os.str();
       r.converged = false;
+      r.outcome = Outcome::Stalled;
     }
   }
   // The final verdict is judged at the full load, whatever the last step said.
@@ -367,18 +397,25 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
   total.residualNorm = system.forceResidual(g).norm();
   total.relativeResidual = total.residualNorm / scale;
   total.energy = e;
-  if (r.converged && !(total.residualNorm <= std::max(1e3 * opt.tolerance, std::sqrt(opt.tolerance)) * scale ||
-                       total.residualNorm <= system.roundoffForce(design))) {
+  if (!std::isfinite(total.residualNorm) || !std::isfinite(e)) {
     r.converged = false;
+    r.outcome = Outcome::NumericalFailure;
+    r.message = "the final state has non-finite energy or forces (" + r.message + ")";
+  } else if (r.converged && !(total.residualNorm <= std::max(1e3 * opt.tolerance, std::sqrt(opt.tolerance)) * scale ||
+                              total.residualNorm <= system.roundoffForce(design))) {
+    r.converged = false;
+    r.outcome = Outcome::Stalled;
     r.message = "the final state does not satisfy equilibrium at the full load (" + r.message + ")";
   }
   total.converged = r.converged;
+  total.outcome = r.converged ? Outcome::Converged : r.outcome;
+  if (!r.converged && total.outcome == Outcome::Converged) total.outcome = Outcome::Stalled;
   total.unstable = r.unstable;
   total.roundoff = r.roundoff;
   total.negativePivots = r.negativePivots;
   total.message = r.message;
   total.timeSeconds = since(t0);
-  system.setLoadFactor(saved);
+  finishState(reached);
   return total;
 }
 

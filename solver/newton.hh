@@ -14,6 +14,7 @@
 // displacements). Nothing here is tuned to a particular scene.
 #pragma once
 
+#include "model/outcome.hh"
 #include "model/pose_system.hh"
 
 #include <Eigen/Core>
@@ -36,7 +37,8 @@ struct NewtonOptions {
 
 // Outcome of one Newton solve (one load step) or of a whole continuation.
 struct NewtonReport {
-  bool converged = false;
+  bool converged = false;           // outcome == Outcome::Converged
+  Outcome outcome = Outcome::NumericalFailure;
   int iterations = 0;               // Newton iterations (all load steps)
   int loadSteps = 0;                // load steps taken (1 without continuation)
   int factorizations = 0;
@@ -63,8 +65,14 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
                          double tolerance, const NewtonOptions& options);
 
 // Full static solve of one pose with adaptive load continuation: tries the
-// full load first and, if Newton fails, advances the load factor in smaller
-// steps. u: initial guess on entry (use PoseSystem::restDofs), solution on exit.
+// full load first from `state` (its unknowns and charts: a warm start) and,
+// if Newton fails, advances the load factor in smaller steps from the rest
+// state. On exit `state` holds the solution, its charts and the load factor
+// reached (1 unless the continuation gave up).
+NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state,
+                              const NewtonOptions& options);
+// The same from u with the charts at the design's rest frames (a solve from
+// scratch); u: initial guess on entry (use PoseSystem::restDofs), solution on exit.
 NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u,
                               const NewtonOptions& options);
 

@@ -132,7 +132,7 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
       // slightly longer step.
       rep.restarts++;
       h = std::min(h * opt.stepGrowth, opt.maxStep);
-      const bool moved = sys.reanchorCharts(u);
+      const bool moved = sys.reanchorCharts(u, design);
       if (moved) rep.chartUpdates++;
       const bool refresh = rep.iterations - lastMassUpdate >= opt.massUpdateInterval;
       if (moved || refresh) {

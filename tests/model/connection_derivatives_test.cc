@@ -94,7 +94,7 @@ class HardConnection : public testing::TestWithParam<Hard> {
     u_ = sys.dofsFrom(x, theta);
     if (GetParam() == Hard::Rotated179) {
       // Anchor every chart at the current frames, as the solver does.
-      EXPECT_TRUE(sys.reanchorCharts(u_, 2.0));
+      EXPECT_TRUE(sys.reanchorCharts(u_, design_, 2.0));
       u_ = sys.dofsFrom(x, theta);
     }
     du_.resize(sys.numDofs());
@@ -139,19 +139,11 @@ TEST_P(HardConnection, GradientHessianAndThirdOrder) {
   const int n = s.numDofs();
   auto huu = [&](const Eigen::VectorXd& u) {
     const JointDerivatives j = s.joint(u, design_);
-    Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
-    for (const Triplet& t : j.Huu) {
-      M(t.row(), t.col()) += t.value();
-      if (t.row() != t.col()) M(t.col(), t.row()) += t.value();
-    }
+    Eigen::MatrixXd M(j.Huu);  // both triangles stored
     return Eigen::VectorXd(Eigen::Map<Eigen::VectorXd>(M.data(), M.size()));
   };
   const JointDerivatives dj = s.jointDirectional(u_, design_, du_);
-  Eigen::MatrixXd dH = Eigen::MatrixXd::Zero(n, n);
-  for (const Triplet& t : dj.Huu) {
-    dH(t.row(), t.col()) += t.value();
-    if (t.row() != t.col()) dH(t.col(), t.row()) += t.value();
-  }
+  Eigen::MatrixXd dH(dj.Huu);
   EXPECT_TAYLOR_ORDER(taylorTest(huu, u_, du_, Eigen::Map<Eigen::VectorXd>(dH.data(), dH.size())), kMinOrder);
 }
 
@@ -159,8 +151,9 @@ TEST_P(HardConnection, DesignDerivatives) {
   PoseSystem& s = sys();
   const int n = s.numDofs(), P = design_.numParameters();
   const JointDerivatives j = s.joint(u_, design_);
-  Eigen::MatrixXd Hup = Eigen::MatrixXd::Zero(n, P);
-  for (const Triplet& t : j.Hup) Hup(t.row(), t.col()) += t.value();
+  Eigen::MatrixXd Hup(j.Hup);
+  ASSERT_EQ(Hup.rows(), n);
+  ASSERT_EQ(Hup.cols(), P);
   const Eigen::VectorXd p0 = design_.toVector();
   auto designOf = [&](const Eigen::VectorXd& p) {
     Design d = design_;
@@ -200,7 +193,7 @@ TEST(ConnectionInvariance, RigidRotationCostsNothing) {
     // rotated rest material frame.
     Eigen::VectorXd u = sys.dofsFrom(x, Eigen::VectorXd::Zero(model.network().numEdges()));
     sys.resetCharts(d);
-    ASSERT_TRUE(sys.reanchorCharts(u, 2.0));  // every edge gets a chart at its rotated frame
+    ASSERT_TRUE(sys.reanchorCharts(u, d, 2.0));  // every edge gets a chart at its rotated frame
     // Re-anchoring transports the rest director along the shortest arc, which
     // differs from the rigid rotation by a turn about the tangent; undo it
     // through theta so the material frames are the rotated rest frames.

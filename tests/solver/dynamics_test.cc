@@ -178,7 +178,7 @@ TEST(Dynamics, FreeFallFollowsBackwardEulerExactly) {
   ASSERT_TRUE(be.advanceTo(n * 1e-3)) << be.report().message;
   EXPECT_EQ(be.report().steps, n);
   EXPECT_EQ(be.report().rejectedSteps, 0);
-  const std::vector<Vec3> x = sys.positions(be.dofs());
+  const std::vector<Vec3> x = sys.positions(be.dofs(), d);
   const double h = 1e-3, fall = h * h * n * (n + 1) / 2.0;
   for (std::size_t v = 0; v < x.size(); ++v) {
     const Vec3 expected = s.vertices[v] + fall * *s.gravity;
@@ -215,7 +215,7 @@ std::unique_ptr<Oscillation> releasedCantilever(int edges, double L, double rt, 
   o->design = Design::fromScene(o->free);
   PoseSystem& sl = o->mLoaded->pose(0);
   o->u0 = newtonEquilibrium(sl, o->design, 1e-10);
-  o->tip0 = sl.positions(o->u0)[edges].z();
+  o->tip0 = sl.positions(o->u0, o->design)[edges].z();
   PoseSystem& sf = o->mFree->pose(0);
   EXPECT_EQ(sf.numDofs(), sl.numDofs());
   sf.setCharts(sl.charts());
@@ -244,7 +244,7 @@ TEST(Dynamics, CantileverPeriodMatchesFirstBendingMode) {
   for (int i = 1; i <= steps; ++i) {
     ASSERT_TRUE(be.advanceTo(i * opt.maxStep)) << be.report().message;
     t.push_back(be.time());
-    z.push_back(sys.positions(be.dofs())[N].z());
+    z.push_back(sys.positions(be.dofs(), o->design)[N].z());
   }
   const double measured = measuredPeriod(t, z);
   RecordProperty("period_closed_form_s", std::to_string(period));
@@ -290,7 +290,7 @@ TEST(Dynamics, SettlesToTheStaticEquilibrium) {
   const Design d = Design::fromScene(s);
   PoseSystem& sys = model.pose(0);
   const Eigen::VectorXd uStatic = newtonEquilibrium(sys, d, 1e-10);
-  const std::vector<Vec3> xStatic = sys.positions(uStatic);
+  const std::vector<Vec3> xStatic = sys.positions(uStatic, d);
   const double sag = maxDistance(xStatic, s.vertices);
   ASSERT_GT(sag, 1e-3);
 
@@ -370,7 +370,7 @@ void expectSameEquilibrium(const Scene& s, double tol) {
   const Design d = Design::fromScene(s);
   PoseSystem& sys = model.pose(0);
   const Eigen::VectorXd uN = newtonEquilibrium(sys, d, tol);
-  const std::vector<Vec3> xN = sys.positions(uN);
+  const std::vector<Vec3> xN = sys.positions(uN, d);
   Eigen::VectorXd gN;
   double e;
   sys.evaluate(uN, d, e, gN, true);
@@ -391,7 +391,7 @@ void expectSameEquilibrium(const Scene& s, double tol) {
   EXPECT_EQ(r.residualHistory.back(), r.relativeResidual);
   Eigen::VectorXd gR;
   sys.evaluate(uR, d, e, gR, false);
-  const std::vector<Vec3> xR = sys.positions(uR);
+  const std::vector<Vec3> xR = sys.positions(uR, d);
   const double bound = (gR.norm() + gN.norm()) / lambdaMin;
   const double moved = maxDistance(xN, s.vertices);
   ::testing::Test::RecordProperty("relaxation_iterations", r.iterations);
