@@ -1,8 +1,13 @@
 #include "apps/cli_common.hh"
 
+#include "solver/equilibrium.hh"
+
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
+#include <stdexcept>
 #include <unistd.h>
 
 namespace rodmesh::cli {
@@ -35,6 +40,68 @@ void printEffects(const EffectSet& fx, const RodNetwork& net, long long dofsPerP
               << ")\n";
   std::cerr << "  unknowns: " << dofsPerPose << " per pose, "
             << (fx.planar ? "in-plane (2 per free vertex, no twist)" : "3D") << "  (" << fx.planarReason << ")\n";
+}
+
+MatX3 toRows(const std::vector<Vec3>& v) {
+  MatX3 m(static_cast<Eigen::Index>(v.size()), 3);
+  for (std::size_t i = 0; i < v.size(); ++i) m.row(i) = v[i].transpose();
+  return m;
+}
+
+MatX2 toRows(const std::vector<Vec2>& v) {
+  MatX2 m(static_cast<Eigen::Index>(v.size()), 2);
+  for (std::size_t i = 0; i < v.size(); ++i) m.row(i) = v[i].transpose();
+  return m;
+}
+
+void setRestAndRadii(Archive& a, const std::vector<Vec3>& rest, const std::vector<Vec2>& radii) {
+  a.restPositions = toRows(rest);
+  a.radii = toRows(radii);
+}
+
+ArchivePose makeArchivePose(const std::string& name, const std::vector<Vec3>& positions, const Eigen::VectorXd* twist,
+                            const std::vector<Vec3>& target, const PoseSolveSummary& solve) {
+  ArchivePose p;
+  p.name = name;
+  p.positions = toRows(positions);
+  if (twist) p.twist = *twist;
+  if (!target.empty()) {
+    if (target.size() != positions.size())
+      throw std::invalid_argument("pose " + name + ": " + std::to_string(target.size()) + " target positions for " +
+                                  std::to_string(positions.size()) + " vertices");
+    p.target = toRows(target);
+    p.rmsError = rmsError(positions, target);
+  }
+  p.residualNorm = solve.residualNorm;
+  p.status = solve.status;
+  p.iterations = solve.iterations;
+  p.timeSeconds = solve.timeSeconds;
+  p.outOfPlaneStable = solve.outOfPlaneStable;
+  return p;
+}
+
+void setOptimizeResult(ArchivePose& p, const std::vector<Vec3>& initialPositions,
+                       const std::vector<Vec3>& optimizerPositions) {
+  if (static_cast<Eigen::Index>(initialPositions.size()) != p.positions.rows() ||
+      static_cast<Eigen::Index>(optimizerPositions.size()) != p.positions.rows())
+    throw std::invalid_argument("pose " + p.name + ": initial or optimizer positions do not match the vertex count");
+  p.initialPositions = toRows(initialPositions);
+  double gap = 0.0;
+  for (std::size_t v = 0; v < optimizerPositions.size(); ++v)
+    gap = std::max(gap, (p.positions.row(v) - optimizerPositions[v].transpose()).norm());
+  p.equilibriumGap = gap;
+}
+
+std::optional<double> overallRmsError(const Archive& a) {
+  double sum = 0.0;
+  Eigen::Index count = 0;
+  for (const ArchivePose& p : a.poses) {
+    if (p.target.rows() == 0 || p.target.rows() != p.positions.rows()) return std::nullopt;
+    sum += (p.positions - p.target).squaredNorm();
+    count += p.positions.rows();
+  }
+  if (count == 0) return std::nullopt;
+  return std::sqrt(sum / static_cast<double>(count));
 }
 
 std::string formatSeconds(double s) {

@@ -6,7 +6,11 @@
 #include "model/effects.hh"
 #include "model/network.hh"
 
+#include <Eigen/Core>
+
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace rodmesh::cli {
 
@@ -18,6 +22,41 @@ void describeModel(Archive& a, const RodNetwork& net, const EffectSet& fx, long 
 
 // Prints the scene warnings and the effects summary to stderr.
 void printEffects(const EffectSet& fx, const RodNetwork& net, long long dofsPerPose);
+
+// ---- Building archives: the parts simulate and optimize fill alike.
+
+// How one pose's equilibrium solve went (the /poses/NAME extension attributes).
+struct PoseSolveSummary {
+  std::string status;         // converged, not_converged or failed; empty: not written
+  double residualNorm = 0.0;  // N
+  int iterations = 0;
+  double timeSeconds = 0.0;
+  int outOfPlaneStable = -1;  // 1/0 for planar Newton solves, -1 unknown (not written)
+};
+
+// Row-per-entry matrices for the archive.
+MatX3 toRows(const std::vector<Vec3>& v);
+MatX2 toRows(const std::vector<Vec2>& v);
+
+// Sets /rest/positions and /design/radii (V x 3, V x 2).
+void setRestAndRadii(Archive& a, const std::vector<Vec3>& rest, const std::vector<Vec2>& radii);
+
+// One /poses/NAME entry. `twist` is the edge twist (nullptr when twist is not
+// simulated: nothing is written); `target` may be empty, else it has one entry
+// per vertex and the pose gets `target` and `rms_error` (RMS distance of
+// `positions` to it, in m).
+ArchivePose makeArchivePose(const std::string& name, const std::vector<Vec3>& positions, const Eigen::VectorXd* twist,
+                            const std::vector<Vec3>& target, const PoseSolveSummary& solve = {});
+
+// optimize: records the equilibrium under the initial design and the
+// equilibrium gap, the largest distance between the optimizer's own positions
+// and the re-solved `positions` already in the pose (m).
+void setOptimizeResult(ArchivePose& p, const std::vector<Vec3>& initialPositions,
+                       const std::vector<Vec3>& optimizerPositions);
+
+// Contract §3 RMS error over every pose and vertex, in m; nullopt unless every
+// pose has a target.
+std::optional<double> overallRmsError(const Archive& a);
 
 // Formats seconds as "12.3 ms" / "1.23 s".
 std::string formatSeconds(double s);

@@ -2,6 +2,8 @@
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -25,6 +27,11 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
     std::printf("format    %s (written by rodmesh %s)\n", a.format.c_str(), a.version.c_str());
     std::printf("command   %s\n", a.command.c_str());
     std::printf("status    %s\n", a.status.c_str());
+    if (a.optimize) {
+      std::printf("optimize  method %s, %lld iterations in %s\n", a.optimize->method.c_str(), a.optimize->iterations,
+                  formatSeconds(a.optimize->timeSeconds).c_str());
+      if (!a.optimize->message.empty()) std::printf("          %s\n", a.optimize->message.c_str());
+    }
     std::printf("model     %lld vertices, %lld edges, %lld rods, %lld connections, %lld unknowns per pose%s\n",
                 a.nVertices, a.nEdges, a.nRods, a.nConnections, a.dofsPerPose, a.planar ? " (planar)" : "");
     std::printf("effects   %s\n", a.effects.c_str());
@@ -33,6 +40,18 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
       std::printf("radii     r_t %.3f..%.3f mm, r_n %.3f..%.3f mm\n", a.radii.col(0).minCoeff() * 1e3,
                   a.radii.col(0).maxCoeff() * 1e3, a.radii.col(1).minCoeff() * 1e3, a.radii.col(1).maxCoeff() * 1e3);
     }
+    if (a.initialRadii && a.initialRadii->rows() > 0) {
+      const MatX2& r = *a.initialRadii;
+      std::printf("initially r_t %.3f..%.3f mm, r_n %.3f..%.3f mm\n", r.col(0).minCoeff() * 1e3,
+                  r.col(0).maxCoeff() * 1e3, r.col(1).minCoeff() * 1e3, r.col(1).maxCoeff() * 1e3);
+    }
+    if (a.controlPoints) {
+      const ArchiveControlPoints& c = *a.controlPoints;
+      const long shared = std::count(c.rod.begin(), c.rod.end(), -1);
+      std::printf("control   %zu points (%ld shared ends, %zu interior)%s%s\n", c.rod.size(), shared,
+                  c.rod.size() - static_cast<std::size_t>(shared), c.radii.rows() ? ", radii" : "",
+                  c.restDisplacement.rows() ? ", rest displacement" : "");
+    }
     for (const ArchivePose& p : a.poses) {
       double maxDisp = 0.0;
       if (a.restPositions.rows() == p.positions.rows())
@@ -40,14 +59,26 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
       std::printf("pose      %-16s %-13s residual %.3e N, max displacement %.4f mm", p.name.c_str(),
                   p.status.empty() ? "" : p.status.c_str(), p.residualNorm, maxDisp * 1e3);
       if (p.rmsError) std::printf(", RMS error %.4f mm", *p.rmsError * 1e3);
+      if (p.rmsError && p.initialPositions.rows() == p.target.rows() && p.target.rows() > 0)
+        std::printf(" (initially %.4f mm)",
+                    std::sqrt((p.initialPositions - p.target).squaredNorm() / p.target.rows()) * 1e3);
+      if (p.equilibriumGap) std::printf(", equilibrium gap %.3e mm", *p.equilibriumGap * 1e3);
       std::printf("\n");
+    }
+    if (a.optimize) {
+      if (const auto rms = overallRmsError(a)) std::printf("rms       %.4f mm over all poses\n", *rms * 1e3);
     }
     for (const ArchiveFrames& f : a.frames)
       std::printf("frames    %-16s %zu frames over %.3f s\n", f.name.c_str(), f.positions.size(),
                   f.time.size() ? f.time[f.time.size() - 1] : 0.0);
-    if (a.history && !a.history->iteration.empty())
-      std::printf("history   %zu iterations, final RMS error %.4f mm in %.2f s\n", a.history->iteration.size(),
-                  a.history->rmsError.back() * 1e3, a.history->timeSeconds.back());
+    if (a.history && !a.history->iteration.empty()) {
+      const ArchiveHistory& h = *a.history;
+      std::printf("history   %zu iterations", h.iteration.size());
+      if (!h.objective.empty()) std::printf(", objective %.4e -> %.4e", h.objective.front(), h.objective.back());
+      if (!h.rmsError.empty()) std::printf(", final RMS error %.4f mm", h.rmsError.back() * 1e3);
+      if (!h.timeSeconds.empty()) std::printf(" at %.2f s", h.timeSeconds.back());
+      std::printf("\n");
+    }
     return kExitDone;
   };
   return c;

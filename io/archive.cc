@@ -1,10 +1,16 @@
 #include "io/archive.hh"
 
-#include <hdf5.h>
+#include "io/interrupt.hh"
 
-#include <cstdio>
-#include <stdexcept>
+#include <hdf5.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+#include <thread>
 
 namespace rodmesh {
 namespace {
@@ -56,6 +62,26 @@ void writeDoubles(hid_t loc, const char* name, const double* data, const std::ve
   std::size_t n = 1;
   for (auto d : dims) n *= d;
   if (n > 0) check(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), name);
+}
+
+// 1-D integer dataset stored as `fileType` (H5T_STD_I64LE, H5T_STD_I32LE).
+template <class T>
+void writeInts(hid_t loc, const char* name, const std::vector<T>& values, hid_t fileType, hid_t memType) {
+  const hsize_t n = values.size();
+  Hid space(H5Screate_simple(1, &n, nullptr), H5Sclose);
+  Hid ds(checkId(H5Dcreate2(loc, name, fileType, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), name), H5Dclose);
+  if (n > 0) check(H5Dwrite(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), name);
+}
+
+// 1-D dataset of variable-length UTF-8 strings.
+void writeStrings(hid_t loc, const char* name, const std::vector<std::string>& values) {
+  Hid type(stringType(), H5Tclose);
+  const hsize_t n = values.size();
+  Hid space(H5Screate_simple(1, &n, nullptr), H5Sclose);
+  Hid ds(checkId(H5Dcreate2(loc, name, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), name), H5Dclose);
+  std::vector<const char*> ptrs;
+  for (const std::string& v : values) ptrs.push_back(v.c_str());
+  if (n > 0) check(H5Dwrite(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data()), name);
 }
 
 void writeStringDataset(hid_t loc, const char* name, const std::string& value) {
@@ -157,6 +183,96 @@ std::string readStringDataset(hid_t loc, const char* name, const std::string& fi
   return out;
 }
 
+// A 1-D dataset read as integers (HDF5 converts from any stored numeric type).
+template <class T>
+std::vector<T> readInts(hid_t loc, const std::string& name, hid_t memType, const std::string& file) {
+  Hid ds(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (ds < 0) throw std::runtime_error(file + ": cannot open dataset " + name);
+  Hid space(H5Dget_space(ds), H5Sclose);
+  if (H5Sget_simple_extent_ndims(space) != 1) throw std::runtime_error(file + ": dataset " + name + " should be 1-D");
+  hsize_t n = 0;
+  H5Sget_simple_extent_dims(space, &n, nullptr);
+  std::vector<T> out(n);
+  if (n > 0 && H5Dread(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0)
+    throw std::runtime_error(file + ": cannot read dataset " + name + " as integers");
+  return out;
+}
+
+std::vector<double> readVector(hid_t loc, const std::string& name, const std::string& file) {
+  std::vector<hsize_t> dims;
+  std::vector<double> v = readDoubles(loc, name, dims, file);
+  if (dims.size() != 1) throw std::runtime_error(file + ": dataset " + name + " should be 1-D");
+  return v;
+}
+
+std::vector<std::string> readStrings(hid_t loc, const std::string& name, const std::string& file) {
+  Hid ds(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (ds < 0) throw std::runtime_error(file + ": cannot open dataset " + name);
+  Hid ftype(H5Dget_type(ds), H5Tclose);
+  if (H5Tget_class(ftype) != H5T_STRING || H5Tis_variable_str(ftype) <= 0)
+    throw std::runtime_error(file + ": dataset " + name + " should hold variable-length strings");
+  Hid space(H5Dget_space(ds), H5Sclose);
+  if (H5Sget_simple_extent_ndims(space) != 1) throw std::runtime_error(file + ": dataset " + name + " should be 1-D");
+  hsize_t n = 0;
+  H5Sget_simple_extent_dims(space, &n, nullptr);
+  std::vector<std::string> out;
+  if (n == 0) return out;
+  Hid type(stringType(), H5Tclose);
+  std::vector<char*> ptrs(n, nullptr);
+  if (H5Dread(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data()) < 0)
+    throw std::runtime_error(file + ": cannot read dataset " + name);
+  for (char* p : ptrs) out.emplace_back(p ? p : "");
+  H5Dvlen_reclaim(type, space, H5P_DEFAULT, ptrs.data());
+  return out;
+}
+
+// Rejects archives whose parts disagree in size (a programming error in the
+// command that filled it); called before anything is written.
+void checkConsistent(const Archive& a) {
+  auto fail = [](const std::string& what) { throw std::runtime_error("inconsistent archive: " + what); };
+  if (a.history) {
+    const ArchiveHistory& h = *a.history;
+    const std::size_t n = h.iteration.size();
+    auto same = [&](std::size_t size, const char* name, bool optional) {
+      if (size != n && !(optional && size == 0))
+        fail(std::string("/history/") + name + " has " + std::to_string(size) + " entries, /history/iteration has " +
+             std::to_string(n));
+    };
+    same(h.timeSeconds.size(), "time_s", false);
+    same(h.objective.size(), "objective", false);
+    same(h.rmsError.size(), "rms_error", false);
+    same(h.level.size(), "level", true);
+    same(h.constraintViolation.size(), "constraint_violation", true);
+    same(h.gradientNorm.size(), "gradient_norm", true);
+    same(h.phase.size(), "phase", true);
+  }
+  if (a.controlPoints) {
+    const ArchiveControlPoints& c = *a.controlPoints;
+    const std::size_t n = c.rod.size();
+    auto same = [&](std::size_t size, const char* name, bool optional) {
+      if (size != n && !(optional && size == 0))
+        fail(std::string("/design/control_points/") + name + " has " + std::to_string(size) +
+             " entries, /design/control_points/rod has " + std::to_string(n));
+    };
+    same(c.arcFraction.size(), "arc_fraction", false);
+    same(c.vertex.size(), "vertex", true);
+    same(static_cast<std::size_t>(c.radii.rows()), "radii", true);
+    same(static_cast<std::size_t>(c.restDisplacement.rows()), "rest_displacement", true);
+  }
+  for (const ArchivePose& p : a.poses)
+    if (p.initialPositions.rows() != 0 && p.initialPositions.rows() != p.positions.rows())
+      fail("/poses/" + p.name + "/initial_positions has " + std::to_string(p.initialPositions.rows()) +
+           " rows, positions has " + std::to_string(p.positions.rows()));
+}
+
+// Test hook (documented in archive.hh): seconds to wait before the rename.
+void slowWriteHook() {
+  const char* s = std::getenv("RODMESH_TEST_SLOW_WRITE");
+  if (!s || !*s) return;
+  const double seconds = std::strtod(s, nullptr);
+  if (seconds > 0) std::this_thread::sleep_for(std::chrono::duration<double>(std::min(seconds, 600.0)));
+}
+
 herr_t collectName(hid_t, const char* name, const H5L_info_t*, void* data) {
   static_cast<std::vector<std::string>*>(data)->push_back(name);
   return 0;
@@ -165,8 +281,12 @@ herr_t collectName(hid_t, const char* name, const H5L_info_t*, void* data) {
 }  // namespace
 
 void writeArchive(const Archive& a, const std::string& path) {
+  checkConsistent(a);
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  removeStaleTempFiles(path);
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  // Until the end of this function SIGINT / SIGTERM unlink `tmp` and exit.
+  TempFileGuard guard(tmp);
   try {
     {
       Hid file(checkId(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), tmp), H5Fclose);
@@ -174,6 +294,13 @@ void writeArchive(const Archive& a, const std::string& path) {
       writeStringAttr(file, "version", a.version);
       writeStringAttr(file, "command", a.command);
       writeStringAttr(file, "status", a.status);
+      if (a.optimize) {
+        const ArchiveOptimizeSummary& o = *a.optimize;
+        writeStringAttr(file, "method", o.method);
+        writeScalarAttr<long long>(file, "iterations", o.iterations, H5T_NATIVE_LLONG);
+        writeScalarAttr<double>(file, "time_s", o.timeSeconds, H5T_NATIVE_DOUBLE);
+        writeStringAttr(file, "message", o.message);
+      }
       for (const auto& [k, v] : a.extraRootAttributes) writeStringAttr(file, k.c_str(), v);
       writeStringDataset(file, "scene", a.sceneJson);
 
@@ -197,6 +324,16 @@ void writeArchive(const Archive& a, const std::string& path) {
         writeDoubles(design, "radii", a.radii.data(), {(hsize_t)a.radii.rows(), 2});
         if (a.initialRadii)
           writeDoubles(design, "initial_radii", a.initialRadii->data(), {(hsize_t)a.initialRadii->rows(), 2});
+        if (a.controlPoints) {
+          const ArchiveControlPoints& c = *a.controlPoints;
+          Hid cp(makeGroup(design, "control_points"), H5Gclose);
+          if (c.radii.rows() > 0) writeDoubles(cp, "radii", c.radii.data(), {(hsize_t)c.radii.rows(), 2});
+          if (c.restDisplacement.rows() > 0)
+            writeDoubles(cp, "rest_displacement", c.restDisplacement.data(), {(hsize_t)c.restDisplacement.rows(), 3});
+          writeInts<int>(cp, "rod", c.rod, H5T_STD_I32LE, H5T_NATIVE_INT);
+          writeDoubles(cp, "arc_fraction", c.arcFraction.data(), {(hsize_t)c.arcFraction.size()});
+          if (!c.vertex.empty()) writeInts<int>(cp, "vertex", c.vertex, H5T_STD_I32LE, H5T_NATIVE_INT);
+        }
       }
       {
         // Track creation order so that readers list poses in scene order.
@@ -214,6 +351,9 @@ void writeArchive(const Archive& a, const std::string& path) {
           writeScalarAttr<long long>(g, "iterations", p.iterations, H5T_NATIVE_LLONG);
           writeScalarAttr<double>(g, "time_s", p.timeSeconds, H5T_NATIVE_DOUBLE);
           if (p.outOfPlaneStable >= 0) writeScalarAttr<int>(g, "out_of_plane_stable", p.outOfPlaneStable, H5T_NATIVE_INT);
+          if (p.initialPositions.rows() > 0)
+            writeDoubles(g, "initial_positions", p.initialPositions.data(), {(hsize_t)p.initialPositions.rows(), 3});
+          if (p.equilibriumGap) writeScalarAttr<double>(g, "equilibrium_gap", *p.equilibriumGap, H5T_NATIVE_DOUBLE);
         }
       }
       if (!a.frames.empty()) {
@@ -232,13 +372,21 @@ void writeArchive(const Archive& a, const std::string& path) {
       if (a.history) {
         Hid h(makeGroup(file, "history"), H5Gclose);
         const ArchiveHistory& hs = *a.history;
-        writeDoubles(h, "iteration", hs.iteration.data(), {(hsize_t)hs.iteration.size()});
+        writeInts<long long>(h, "iteration", hs.iteration, H5T_STD_I64LE, H5T_NATIVE_LLONG);
         writeDoubles(h, "time_s", hs.timeSeconds.data(), {(hsize_t)hs.timeSeconds.size()});
         writeDoubles(h, "objective", hs.objective.data(), {(hsize_t)hs.objective.size()});
         writeDoubles(h, "rms_error", hs.rmsError.data(), {(hsize_t)hs.rmsError.size()});
+        if (!hs.level.empty()) writeInts<long long>(h, "level", hs.level, H5T_STD_I64LE, H5T_NATIVE_LLONG);
+        if (!hs.constraintViolation.empty())
+          writeDoubles(h, "constraint_violation", hs.constraintViolation.data(),
+                       {(hsize_t)hs.constraintViolation.size()});
+        if (!hs.gradientNorm.empty())
+          writeDoubles(h, "gradient_norm", hs.gradientNorm.data(), {(hsize_t)hs.gradientNorm.size()});
+        if (!hs.phase.empty()) writeStrings(h, "phase", hs.phase);
       }
       check(H5Fflush(file, H5F_SCOPE_GLOBAL), tmp);
     }
+    slowWriteHook();
     if (std::rename(tmp.c_str(), path.c_str()) != 0)
       throw std::runtime_error("cannot move " + tmp + " to " + path);
   } catch (...) {
@@ -260,6 +408,14 @@ Archive readArchive(const std::string& path) {
   a.version = readStringAttr(file, "version", path);
   a.command = readStringAttr(file, "command", path);
   a.status = readStringAttr(file, "status", path);
+  if (H5Aexists(file, "method") > 0) {
+    ArchiveOptimizeSummary o;
+    o.method = readStringAttr(file, "method", path);
+    o.iterations = readScalarAttr<long long>(file, "iterations", H5T_NATIVE_LLONG).value_or(0);
+    o.timeSeconds = readScalarAttr<double>(file, "time_s", H5T_NATIVE_DOUBLE).value_or(0.0);
+    o.message = readStringAttr(file, "message", path);
+    a.optimize = std::move(o);
+  }
   if (exists(file, "scene")) a.sceneJson = readStringDataset(file, "scene", path);
   if (exists(file, "model")) {
     Hid model(H5Gopen2(file, "model", H5P_DEFAULT), H5Gclose);
@@ -275,6 +431,16 @@ Archive readArchive(const std::string& path) {
   if (exists(file, "rest/positions")) a.restPositions = readMatrix<3>(file, "rest/positions", path);
   if (exists(file, "design/radii")) a.radii = readMatrix<2>(file, "design/radii", path);
   if (exists(file, "design/initial_radii")) a.initialRadii = readMatrix<2>(file, "design/initial_radii", path);
+  if (exists(file, "design/control_points")) {
+    Hid cpg(H5Gopen2(file, "design/control_points", H5P_DEFAULT), H5Gclose);
+    ArchiveControlPoints c;
+    if (exists(cpg, "radii")) c.radii = readMatrix<2>(cpg, "radii", path);
+    if (exists(cpg, "rest_displacement")) c.restDisplacement = readMatrix<3>(cpg, "rest_displacement", path);
+    if (exists(cpg, "rod")) c.rod = readInts<int>(cpg, "rod", H5T_NATIVE_INT, path);
+    if (exists(cpg, "arc_fraction")) c.arcFraction = readVector(cpg, "arc_fraction", path);
+    if (exists(cpg, "vertex")) c.vertex = readInts<int>(cpg, "vertex", H5T_NATIVE_INT, path);
+    a.controlPoints = std::move(c);
+  }
   if (exists(file, "poses")) {
     Hid poses(H5Gopen2(file, "poses", H5P_DEFAULT), H5Gclose);
     std::vector<std::string> names;
@@ -299,6 +465,8 @@ Archive readArchive(const std::string& path) {
       p.iterations = (int)readScalarAttr<long long>(g, "iterations", H5T_NATIVE_LLONG).value_or(0);
       p.timeSeconds = readScalarAttr<double>(g, "time_s", H5T_NATIVE_DOUBLE).value_or(0.0);
       p.outOfPlaneStable = readScalarAttr<int>(g, "out_of_plane_stable", H5T_NATIVE_INT).value_or(-1);
+      if (exists(g, "initial_positions")) p.initialPositions = readMatrix<3>(g, "initial_positions", path);
+      p.equilibriumGap = readScalarAttr<double>(g, "equilibrium_gap", H5T_NATIVE_DOUBLE);
       a.poses.push_back(std::move(p));
     }
   }
@@ -328,11 +496,15 @@ Archive readArchive(const std::string& path) {
   }
   if (exists(file, "history")) {
     ArchiveHistory h;
-    std::vector<hsize_t> dims;
-    h.iteration = readDoubles(file, "history/iteration", dims, path);
-    h.timeSeconds = readDoubles(file, "history/time_s", dims, path);
-    h.objective = readDoubles(file, "history/objective", dims, path);
-    h.rmsError = readDoubles(file, "history/rms_error", dims, path);
+    Hid hg(H5Gopen2(file, "history", H5P_DEFAULT), H5Gclose);
+    h.iteration = readInts<long long>(hg, "iteration", H5T_NATIVE_LLONG, path);
+    h.timeSeconds = readVector(hg, "time_s", path);
+    h.objective = readVector(hg, "objective", path);
+    h.rmsError = readVector(hg, "rms_error", path);
+    if (exists(hg, "level")) h.level = readInts<long long>(hg, "level", H5T_NATIVE_LLONG, path);
+    if (exists(hg, "constraint_violation")) h.constraintViolation = readVector(hg, "constraint_violation", path);
+    if (exists(hg, "gradient_norm")) h.gradientNorm = readVector(hg, "gradient_norm", path);
+    if (exists(hg, "phase")) h.phase = readStrings(hg, "phase", path);
     a.history = std::move(h);
   }
   return a;

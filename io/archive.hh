@@ -9,16 +9,27 @@
 //   /rest/positions            V x 3
 //   /design/radii              V x 2   [r_t, r_n]
 //   /design/initial_radii      V x 2   (optimize only)
+//   /design/control_points/{radii C x 2, rest_displacement C x 3, rod int C,
+//                           arc_fraction C, vertex int C}     (optimize only)
 //   /poses/NAME/positions      V x 3
 //   /poses/NAME/twist          E       (when twist is simulated)
 //   /poses/NAME/target         V x 3   (when given)
 //   /poses/NAME attrs          residual_norm, rms_error (when a target is given);
 //                              extensions: status, iterations, time_s
+//   /poses/NAME/initial_positions V x 3, attr equilibrium_gap  (optimize only)
 //   /frames/NAME/positions     T x V x 3, /frames/NAME/time T (dynamics)
-//   /history/{iteration,time_s,objective,rms_error}   (optimize only)
+//   /history/{iteration (int64), time_s, objective, rms_error, level (int64),
+//             constraint_violation, gradient_norm, phase (string)}  (optimize only)
+//   /            attrs  (optimize only) method, iterations (int64), time_s, message
 //
-// writeArchive writes to a temporary file next to the target and renames it
-// into place only when complete.
+// writeArchive writes to a temporary file PATH.tmp.PID next to the target and
+// renames it into place only when complete. While it writes, SIGINT and
+// SIGTERM remove the temporary file and end the process with status 130 / 143
+// (io/interrupt.hh); temporary files of the same PATH left by processes that
+// no longer exist (after a SIGKILL, say) are removed before writing.
+// Test hook: the environment variable RODMESH_TEST_SLOW_WRITE=SECONDS makes
+// writeArchive sleep that long between completing the temporary file and
+// renaming it, so that tests can interrupt a write; never set it otherwise.
 #pragma once
 
 #include <Eigen/Core>
@@ -44,6 +55,9 @@ struct ArchivePose {
   int iterations = 0;
   double timeSeconds = 0.0;
   int outOfPlaneStable = -1;  // extension: 1/0 for planar solves, -1 unknown (not written)
+  // optimize only:
+  MatX3 initialPositions;                // equilibrium under the initial design; empty: not written
+  std::optional<double> equilibriumGap;  // m: largest |optimizer position - re-solved position|
 };
 
 struct ArchiveFrames {
@@ -52,8 +66,35 @@ struct ArchiveFrames {
   std::vector<MatX3> positions;  // T entries of V x 3
 };
 
+// One entry per optimizer iteration. `iteration`, `timeSeconds`, `objective`
+// and `rmsError` are always written with the group; the other vectors are
+// written when non-empty. Every written vector has the length of `iteration`.
 struct ArchiveHistory {
-  std::vector<double> iteration, timeSeconds, objective, rmsError;
+  std::vector<long long> iteration;         // int64
+  std::vector<double> timeSeconds;          // s since the start of the run
+  std::vector<double> objective;            // f (contract §4), m^2
+  std::vector<double> rmsError;             // m
+  std::vector<long long> level;             // schedule level (0, 1, 2: control points in use), int64
+  std::vector<double> constraintViolation;  // N: equilibrium violation (SAND; 0 for reduced)
+  std::vector<double> gradientNorm;         // extension: norm of the objective's (reduced) gradient
+  std::vector<std::string> phase;           // extension: "radii", "rest_shape" or "joint" (both)
+};
+
+// The design's control points (contract §4), C of them.
+struct ArchiveControlPoints {
+  MatX2 radii;                      // C x 2 [r_t, r_n]; empty: not written
+  MatX3 restDisplacement;           // C x 3 [dx, dy, dz]; empty: not written
+  std::vector<int> rod;             // C: owning rod, -1 for a shared end control point
+  std::vector<double> arcFraction;  // C: arc-length fraction along `rod` in [0, 1]; 0 for a shared end
+  std::vector<int> vertex;          // extension, C: scene vertex of a shared end, -1 for an interior one
+};
+
+// Root attributes written by optimize.
+struct ArchiveOptimizeSummary {
+  std::string method;        // "sand" or "reduced"
+  long long iterations = 0;  // optimizer iterations over the whole schedule (int64)
+  double timeSeconds = 0.0;  // wall time of the optimization [s]
+  std::string message;       // why the optimizer stopped, for humans
 };
 
 struct Archive {
@@ -73,15 +114,18 @@ struct Archive {
   MatX3 restPositions;
   MatX2 radii;
   std::optional<MatX2> initialRadii;
+  std::optional<ArchiveControlPoints> controlPoints;  // optimize only
   std::vector<ArchivePose> poses;
   std::vector<ArchiveFrames> frames;
-  std::optional<ArchiveHistory> history;
+  std::optional<ArchiveHistory> history;           // optimize only
+  std::optional<ArchiveOptimizeSummary> optimize;  // optimize only: root attributes
   // Extra string attributes on /, e.g. solver reports.
   std::map<std::string, std::string> extraRootAttributes;
 };
 
-// Throws std::runtime_error if the file cannot be written; never leaves a
-// partial file at `path`.
+// Throws std::runtime_error if the file cannot be written or the archive is
+// inconsistent (history vectors or control point arrays of different lengths,
+// initial positions of the wrong size); never leaves a partial file at `path`.
 void writeArchive(const Archive& a, const std::string& path);
 
 // Throws std::runtime_error with a clear message if the file is missing or is

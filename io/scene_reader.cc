@@ -380,6 +380,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
       Node b = d["radius_bounds"];
       Vec2 v = b.vec2();
       if (!(v[0] > 0)) b.at(0).fail("minimum radius must be positive, got " + fmt(v[0]));
+      if (!(v[1] > 0)) b.at(1).fail("maximum radius must be positive, got " + fmt(v[1]));
       if (v[0] > v[1]) b.fail("bounds with min > max: [" + fmt(v[0]) + ", " + fmt(v[1]) + "]");
       s.design.radiusMin = v[0];
       s.design.radiusMax = v[1];
@@ -395,6 +396,79 @@ Scene parseScene(const std::string& text, const std::string& path) {
     }
   }
   return s;
+}
+
+void validateForOptimize(const Scene& s) {
+  const std::string file = s.sourcePath.empty() ? std::string("<scene>") : s.sourcePath;
+  auto fail = [&](const std::string& keyPath, const std::string& what) {
+    throw InputError(file + ": " + keyPath + ": " + what);
+  };
+  // What the user wrote, where the Scene no longer tells: "radius" or "radii",
+  // a missing or an empty "parameters".
+  json doc;
+  try {
+    if (!s.sourceText.empty()) doc = json::parse(s.sourceText);
+  } catch (const json::exception&) {
+    doc = json();
+  }
+  const bool haveDoc = doc.is_object();
+  const bool wroteRadii = !haveDoc || doc.contains("radii");
+
+  const DesignSpec& d = s.design;
+  if (!d.present) fail("design", "missing; optimize needs a \"design\" block with \"parameters\" (radii, rest_shape)");
+  if (!d.radii && !d.restShape) {
+    const bool missing = haveDoc && doc["design"].is_object() && !doc["design"].contains("parameters");
+    if (missing) fail("design.parameters", "missing; optimize needs at least one free parameter (radii, rest_shape)");
+    fail("design.parameters", "no free parameters; optimize needs at least one of radii, rest_shape, got []");
+  }
+  if (d.hasRadiusBounds) {
+    if (!(d.radiusMin > 0)) fail("design.radius_bounds[0]", "minimum radius must be positive, got " + fmt(d.radiusMin));
+    if (!(d.radiusMax > 0)) fail("design.radius_bounds[1]", "maximum radius must be positive, got " + fmt(d.radiusMax));
+    if (d.radiusMin > d.radiusMax)
+      fail("design.radius_bounds", "bounds with min > max, got [" + fmt(d.radiusMin) + ", " + fmt(d.radiusMax) + "]");
+  }
+  if (d.controlPointsPerRod < 2)
+    fail("design.control_points_per_rod",
+         "need at least 2 control points per rod, got " + std::to_string(d.controlPointsPerRod));
+
+  bool anyPositive = false;
+  for (std::size_t p = 0; p < s.poses.size(); ++p) {
+    const Pose& pose = s.poses[p];
+    const std::string at = "poses[" + std::to_string(p) + "]";
+    if (pose.target.empty())
+      fail(at + ".target", "missing; optimize needs a target for every pose, got pose " + std::to_string(p) + " \"" +
+                               pose.name + "\" without one");
+    if (pose.target.size() != s.vertices.size())
+      fail(at + ".target", "expected " + std::to_string(s.vertices.size()) +
+                               " target positions (one per vertex), got " + std::to_string(pose.target.size()));
+    if (!(pose.weight >= 0)) fail(at + ".weight", "weight must be non-negative, got " + fmt(pose.weight));
+    anyPositive = anyPositive || pose.weight > 0;
+  }
+  if (!s.poses.empty() && !anyPositive) {
+    std::string got;
+    for (std::size_t p = 0; p < s.poses.size() && p < 4; ++p)
+      got += (p ? ", " : "") + std::string("poses[") + std::to_string(p) + "].weight = " + fmt(s.poses[p].weight);
+    if (s.poses.size() > 4) got += ", ...";
+    fail("poses", "every pose weight is zero; optimize needs at least one positive weight, got " + got);
+  }
+
+  if (d.hasRadiusBounds) {
+    static const char* kAxis[2] = {"r_t", "r_n"};
+    const std::string bounds = "design.radius_bounds [" + fmt(d.radiusMin) + ", " + fmt(d.radiusMax) + "]";
+    for (std::size_t v = 0; v < s.radii.size(); ++v) {
+      for (int k = 0; k < 2; ++k) {
+        const double r = s.radii[v][k];
+        if (r >= d.radiusMin && r <= d.radiusMax) continue;
+        if (wroteRadii)
+          fail("radii[" + std::to_string(v) + "][" + std::to_string(k) + "]",
+               std::string("initial ") + kAxis[k] + " of vertex " + std::to_string(v) + " lies outside " + bounds +
+                   ", got " + fmt(r));
+        fail("radius[" + std::to_string(k) + "]",
+             std::string("initial ") + kAxis[k] + " of every vertex (\"radius\" sets vertices 0 to " +
+                 std::to_string(s.radii.size() - 1) + ") lies outside " + bounds + ", got " + fmt(r));
+      }
+    }
+  }
 }
 
 Scene readSceneFile(const std::string& path) {

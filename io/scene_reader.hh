@@ -22,6 +22,16 @@ Scene parseScene(const std::string& text, const std::string& path);
 // Reads the file, then parseScene. Throws InputError if it cannot be read.
 Scene readSceneFile(const std::string& path);
 
+// The checks `rodmesh optimize` needs beyond parseScene (contract §4, "Bad
+// input for optimize"): a `design` block with at least one parameter; a target
+// for every pose; radius bounds > 0; every initial radius within
+// `radius_bounds` (when given; without them the optimizer derives its own);
+// `control_points_per_rod` >= 2; weights >= 0, not all zero. Throws InputError
+// with a message "FILE: key.path: what, got VALUE" naming the key the user wrote
+// (`radius` or `radii`, found in Scene::sourceText). Scenes built in code are
+// checked too (their messages use the same key paths).
+void validateForOptimize(const Scene& scene);
+
 // Warnings collected while parsing (unknown keys and the like); printed by the CLI.
 const std::vector<std::string>& lastSceneWarnings();
 

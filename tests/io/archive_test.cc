@@ -1,16 +1,23 @@
 // Result archive (contract §3): round trip, atomic writing, clear rejection of
 // files that are not rodmesh archives.
 #include "io/archive.hh"
+#include "io/interrupt.hh"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <algorithm>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <dirent.h>
 #include <fstream>
 #include <string>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <thread>
 #include <unistd.h>
 #include <vector>
 
@@ -87,6 +94,8 @@ Archive fullArchive() {
   p0.status = "converged";
   p0.iterations = 7;
   p0.timeSeconds = 0.125;
+  p0.initialPositions = randomX3(5, 0.02);
+  p0.equilibriumGap = 2.5e-9;
   ArchivePose p1;  // no twist, no target, no rms
   p1.name = "a_second pose";
   p1.positions = randomX3(5, 0.02);
@@ -108,7 +117,19 @@ Archive fullArchive() {
   h.timeSeconds = {0.0, 0.5, 1.25};
   h.objective = {10.0, 5.0, 4.5};
   h.rmsError = {1e-3, 5e-4, 4e-4};
+  h.level = {0, 1, 2};
+  h.constraintViolation = {1e-3, 1e-6, 1e-9};
+  h.gradientNorm = {3.0, 0.5, 1e-4};
+  h.phase = {"radii", "rest_shape", "joint \xc3\xa9"};
   a.history = h;
+  ArchiveControlPoints c;  // one rod of 5 vertices, 4 control points: 2 shared ends, 2 interior
+  c.radii = MatX2::Random(4, 2).cwiseAbs() * 1e-3;
+  c.restDisplacement = MatX3::Random(4, 3) * 1e-4;
+  c.rod = {-1, 0, 0, -1};
+  c.arcFraction = {0.0, 1.0 / 3.0, 2.0 / 3.0, 0.0};
+  c.vertex = {0, -1, -1, 4};
+  a.controlPoints = c;
+  a.optimize = ArchiveOptimizeSummary{"sand", 42, 12.5, "stopped at --max-iter 42"};
   a.extraRootAttributes["solver"] = "ipopt 3.11";
   return a;
 }
@@ -159,6 +180,11 @@ TEST(Archive, RoundTripsEveryField) {
     EXPECT_EQ(y.status, x.status);
     EXPECT_EQ(y.iterations, x.iterations);
     EXPECT_EQ(y.timeSeconds, x.timeSeconds);
+    EXPECT_EQ(y.initialPositions.rows(), x.initialPositions.rows());
+    if (x.initialPositions.rows()) {
+      EXPECT_EQ(y.initialPositions, x.initialPositions);
+    }
+    EXPECT_EQ(y.equilibriumGap, x.equilibriumGap);
   }
 
   ASSERT_EQ(b.frames.size(), 1u);
@@ -172,6 +198,130 @@ TEST(Archive, RoundTripsEveryField) {
   EXPECT_EQ(b.history->timeSeconds, a.history->timeSeconds);
   EXPECT_EQ(b.history->objective, a.history->objective);
   EXPECT_EQ(b.history->rmsError, a.history->rmsError);
+  EXPECT_EQ(b.history->level, a.history->level);
+  EXPECT_EQ(b.history->constraintViolation, a.history->constraintViolation);
+  EXPECT_EQ(b.history->gradientNorm, a.history->gradientNorm);
+  EXPECT_EQ(b.history->phase, a.history->phase);
+
+  ASSERT_TRUE(b.controlPoints.has_value());
+  EXPECT_EQ(b.controlPoints->radii, a.controlPoints->radii);
+  EXPECT_EQ(b.controlPoints->restDisplacement, a.controlPoints->restDisplacement);
+  EXPECT_EQ(b.controlPoints->rod, a.controlPoints->rod);
+  EXPECT_EQ(b.controlPoints->arcFraction, a.controlPoints->arcFraction);
+  EXPECT_EQ(b.controlPoints->vertex, a.controlPoints->vertex);
+
+  ASSERT_TRUE(b.optimize.has_value());
+  EXPECT_EQ(b.optimize->method, "sand");
+  EXPECT_EQ(b.optimize->iterations, 42);
+  EXPECT_EQ(b.optimize->timeSeconds, 12.5);
+  EXPECT_EQ(b.optimize->message, "stopped at --max-iter 42");
+}
+
+// The HDF5 class of an attribute or dataset (numbers as numbers, for h5py and friends).
+H5T_class_t attributeClass(hid_t f, const char* object, const char* name) {
+  hid_t attr = H5Aopen_by_name(f, object, name, H5P_DEFAULT, H5P_DEFAULT);
+  if (attr < 0) return H5T_NO_CLASS;
+  hid_t t = H5Aget_type(attr);
+  const H5T_class_t c = H5Tget_class(t);
+  H5Tclose(t);
+  H5Aclose(attr);
+  return c;
+}
+H5T_class_t datasetClass(hid_t f, const char* name) {
+  hid_t ds = H5Dopen2(f, name, H5P_DEFAULT);
+  if (ds < 0) return H5T_NO_CLASS;
+  hid_t t = H5Dget_type(ds);
+  const H5T_class_t c = H5Tget_class(t);
+  H5Tclose(t);
+  H5Dclose(ds);
+  return c;
+}
+
+TEST(Archive, OptimizePartsHaveTheirTypes) {
+  TempDir dir;
+  writeArchive(fullArchive(), dir / "o.h5");
+  hid_t f = H5Fopen((dir / "o.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  EXPECT_EQ(attributeClass(f, "/", "method"), H5T_STRING);
+  EXPECT_EQ(attributeClass(f, "/", "iterations"), H5T_INTEGER);
+  EXPECT_EQ(attributeClass(f, "/", "time_s"), H5T_FLOAT);
+  EXPECT_EQ(attributeClass(f, "/", "message"), H5T_STRING);
+  EXPECT_EQ(attributeClass(f, "poses/pull_left", "equilibrium_gap"), H5T_FLOAT);
+  EXPECT_EQ(datasetClass(f, "poses/pull_left/initial_positions"), H5T_FLOAT);
+  EXPECT_EQ(datasetClass(f, "history/iteration"), H5T_INTEGER);
+  EXPECT_EQ(datasetClass(f, "history/level"), H5T_INTEGER);
+  EXPECT_EQ(datasetClass(f, "history/objective"), H5T_FLOAT);
+  EXPECT_EQ(datasetClass(f, "history/constraint_violation"), H5T_FLOAT);
+  EXPECT_EQ(datasetClass(f, "history/gradient_norm"), H5T_FLOAT);
+  EXPECT_EQ(datasetClass(f, "history/phase"), H5T_STRING);
+  EXPECT_EQ(datasetClass(f, "design/control_points/radii"), H5T_FLOAT);
+  EXPECT_EQ(datasetClass(f, "design/control_points/rest_displacement"), H5T_FLOAT);
+  EXPECT_EQ(datasetClass(f, "design/control_points/rod"), H5T_INTEGER);
+  EXPECT_EQ(datasetClass(f, "design/control_points/arc_fraction"), H5T_FLOAT);
+  EXPECT_EQ(datasetClass(f, "design/control_points/vertex"), H5T_INTEGER);
+  // Poses without optimize data carry none.
+  EXPECT_EQ(H5Lexists(f, "poses/a_second pose/initial_positions", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Aexists_by_name(f, "poses/a_second pose", "equilibrium_gap", H5P_DEFAULT), 0);
+  H5Fclose(f);
+}
+
+TEST(Archive, ReadsAHistoryWrittenAsFloat64WithoutTheNewerDatasets) {
+  // Archives written before /history/iteration became int64 (and before level,
+  // constraint_violation, gradient_norm, phase) still read.
+  TempDir dir;
+  Archive a = fullArchive();
+  a.history = ArchiveHistory{};
+  a.history->iteration = {0, 1};
+  a.history->timeSeconds = {0.0, 1.0};
+  a.history->objective = {2.0, 1.0};
+  a.history->rmsError = {1e-3, 1e-4};
+  writeArchive(a, dir / "h.h5");
+  hid_t f = H5Fopen((dir / "h.h5").c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  ASSERT_GE(H5Ldelete(f, "history/iteration", H5P_DEFAULT), 0);
+  const hsize_t n = 2;
+  const double it[2] = {0.0, 1.0};
+  hid_t space = H5Screate_simple(1, &n, nullptr);
+  hid_t ds = H5Dcreate2(f, "history/iteration", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, it);
+  H5Dclose(ds);
+  H5Sclose(space);
+  H5Fclose(f);
+  const Archive b = readArchive(dir / "h.h5");
+  ASSERT_TRUE(b.history.has_value());
+  EXPECT_EQ(b.history->iteration, (std::vector<long long>{0, 1}));
+  EXPECT_TRUE(b.history->level.empty());
+  EXPECT_TRUE(b.history->phase.empty());
+}
+
+TEST(Archive, InconsistentOptimizePartsThrowAndWriteNothing) {
+  TempDir dir;
+  {
+    Archive a = fullArchive();
+    a.history->objective.pop_back();
+    EXPECT_THROW(writeArchive(a, dir / "x.h5"), std::runtime_error);
+  }
+  {
+    Archive a = fullArchive();
+    a.history->phase = {"radii"};
+    EXPECT_THROW(writeArchive(a, dir / "x.h5"), std::runtime_error);
+  }
+  {
+    Archive a = fullArchive();
+    a.controlPoints->arcFraction.push_back(0.5);
+    EXPECT_THROW(writeArchive(a, dir / "x.h5"), std::runtime_error);
+  }
+  {
+    Archive a = fullArchive();
+    a.controlPoints->radii = MatX2::Zero(3, 2);
+    EXPECT_THROW(writeArchive(a, dir / "x.h5"), std::runtime_error);
+  }
+  {
+    Archive a = fullArchive();
+    a.poses[0].initialPositions = MatX3::Zero(4, 3);
+    EXPECT_THROW(writeArchive(a, dir / "x.h5"), std::runtime_error);
+  }
+  EXPECT_TRUE(dir.files().empty());
 }
 
 TEST(Archive, OptionalPartsStayAbsent) {
@@ -181,22 +331,30 @@ TEST(Archive, OptionalPartsStayAbsent) {
   a.status = "converged";
   a.initialRadii.reset();
   a.history.reset();
+  a.controlPoints.reset();
+  a.optimize.reset();
   a.frames.clear();
   for (ArchivePose& p : a.poses) {
     p.twist.resize(0);
     p.target.resize(0, 3);
     p.rmsError.reset();
+    p.initialPositions.resize(0, 3);
+    p.equilibriumGap.reset();
   }
   writeArchive(a, dir / "s.h5");
   const Archive b = readArchive(dir / "s.h5");
   EXPECT_FALSE(b.initialRadii.has_value());
   EXPECT_FALSE(b.history.has_value());
+  EXPECT_FALSE(b.controlPoints.has_value());
+  EXPECT_FALSE(b.optimize.has_value());
   EXPECT_TRUE(b.frames.empty());
   ASSERT_EQ(b.poses.size(), 3u);
   for (const ArchivePose& p : b.poses) {
     EXPECT_EQ(p.twist.size(), 0);
     EXPECT_EQ(p.target.rows(), 0);
     EXPECT_FALSE(p.rmsError.has_value());
+    EXPECT_EQ(p.initialPositions.rows(), 0);
+    EXPECT_FALSE(p.equilibriumGap.has_value());
   }
 
   // And they are really absent from the file, not written empty.
@@ -208,6 +366,10 @@ TEST(Archive, OptionalPartsStayAbsent) {
   EXPECT_EQ(H5Lexists(f, "poses/pull_left/twist", H5P_DEFAULT), 0);
   EXPECT_EQ(H5Lexists(f, "poses/pull_left/target", H5P_DEFAULT), 0);
   EXPECT_EQ(H5Aexists_by_name(f, "poses/pull_left", "rms_error", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Lexists(f, "design/control_points", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Lexists(f, "poses/pull_left/initial_positions", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Aexists_by_name(f, "poses/pull_left", "equilibrium_gap", H5P_DEFAULT), 0);
+  for (const char* key : {"method", "iterations", "time_s", "message"}) EXPECT_EQ(H5Aexists(f, key), 0) << key;
   H5Fclose(f);
 }
 
@@ -368,6 +530,177 @@ TEST(Archive, RejectsAnHdf5FileWithAnotherFormat) {
   const std::string msg = readError(path);
   EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
   EXPECT_NE(msg.find("someone-else/3"), std::string::npos) << msg;
+}
+
+// ---------------------------------------------------------------- interrupts, stale temporary files
+
+// A PID that no longer exists: a child that exited and was reaped.
+pid_t deadPid() {
+  const pid_t pid = fork();
+  if (pid == 0) _exit(0);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return pid;
+}
+
+std::vector<std::string> sorted(std::vector<std::string> v) {
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+TEST(ArchiveInterrupt, StaleTempFilesOfDeadProcessesAreRemoved) {
+  TempDir dir;
+  const std::string stale = "out.h5.tmp." + std::to_string(deadPid());
+  const std::string live = "out.h5.tmp." + std::to_string(getppid());  // our parent is alive
+  const std::string otherArchive = "other.h5.tmp." + std::to_string(deadPid());
+  const std::string notAPid = "out.h5.tmp.12ab";
+  for (const std::string& n : {stale, live, otherArchive, notAPid}) std::ofstream(dir / n) << "partial";
+  writeArchive(fullArchive(), dir / "out.h5");
+  EXPECT_EQ(sorted(dir.files()), sorted({"out.h5", live, otherArchive, notAPid}))
+      << "only " << stale << " (dead writer, same archive) goes";
+  EXPECT_EQ(removeStaleTempFiles(dir / "other.h5"), 1);
+  EXPECT_EQ(removeStaleTempFiles(dir / "out.h5"), 0);
+}
+
+// Saves SIGINT / SIGTERM dispositions and restores them (and removes the flag handler) at the end.
+class SignalState {
+ public:
+  SignalState() {
+    sigaction(SIGINT, nullptr, &int_);
+    sigaction(SIGTERM, nullptr, &term_);
+  }
+  ~SignalState() {
+    uninstallInterruptFlag();
+    sigaction(SIGINT, &int_, nullptr);
+    sigaction(SIGTERM, &term_, nullptr);
+  }
+
+ private:
+  struct sigaction int_, term_;
+};
+
+TEST(ArchiveInterrupt, FlagIsSetBySigintOrSigtermAndTheProcessGoesOn) {
+  SignalState keep;
+  installInterruptFlag();
+  installInterruptFlag();  // idempotent
+  EXPECT_FALSE(interruptRequested());
+  std::raise(SIGINT);
+  EXPECT_TRUE(interruptRequested());
+  EXPECT_EQ(interruptSignal(), SIGINT);
+  clearInterruptRequest();
+  EXPECT_FALSE(interruptRequested());
+  std::raise(SIGTERM);
+  EXPECT_EQ(interruptSignal(), SIGTERM);
+  uninstallInterruptFlag();
+  EXPECT_FALSE(interruptRequested());
+}
+
+TEST(ArchiveInterrupt, AWriteAfterTheFirstInterruptCompletesAndTheFlagHandlerComesBack) {
+  SignalState keep;
+  TempDir dir;
+  installInterruptFlag();
+  std::raise(SIGINT);  // the optimizer's stop request; it then writes its archive
+  ASSERT_TRUE(interruptRequested());
+  writeArchive(fullArchive(), dir / "out.h5");
+  EXPECT_EQ(dir.files(), std::vector<std::string>{"out.h5"});
+  EXPECT_EQ(readArchive(dir / "out.h5").optimize->method, "sand");
+  EXPECT_TRUE(interruptRequested()) << "writing does not consume the request";
+  clearInterruptRequest();
+  std::raise(SIGTERM);  // handled by the flag handler again, not by the write's
+  EXPECT_EQ(interruptSignal(), SIGTERM);
+}
+
+volatile std::sig_atomic_t g_seenSignal = 0;
+void recordSignal(int sig) { g_seenSignal = sig; }
+
+TEST(ArchiveInterrupt, PreviousHandlersAreRestoredAfterAWrite) {
+  SignalState keep;
+  TempDir dir;
+  struct sigaction mine;
+  std::memset(&mine, 0, sizeof mine);
+  mine.sa_handler = recordSignal;
+  sigemptyset(&mine.sa_mask);
+  ASSERT_EQ(sigaction(SIGINT, &mine, nullptr), 0);
+  std::signal(SIGTERM, SIG_IGN);
+  writeArchive(fullArchive(), dir / "out.h5");
+  struct sigaction now;
+  sigaction(SIGINT, nullptr, &now);
+  EXPECT_EQ(now.sa_handler, &recordSignal);
+  sigaction(SIGTERM, nullptr, &now);
+  EXPECT_EQ(now.sa_handler, SIG_IGN) << "an ignored signal stays ignored";
+  g_seenSignal = 0;
+  std::raise(SIGINT);
+  EXPECT_EQ(g_seenSignal, SIGINT);
+}
+
+// In a death-test child: a thread sends `sig` to the process as soon as the
+// temporary file of `path` exists (the write is then held open by
+// RODMESH_TEST_SLOW_WRITE).
+void signalOnceTheTempFileExists(const std::string& path, int sig) {
+  std::thread([path, sig] {
+    const std::string tmp = path + ".tmp." + std::to_string(getpid());
+    for (int i = 0; i < 4000 && !fileExists(tmp); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    kill(getpid(), sig);
+  }).detach();
+}
+
+TEST(ArchiveInterruptDeathTest, SigintDuringAWriteRemovesTheTemporaryFileAndExits130) {
+  TempDir dir;
+  const std::string path = dir / "out.h5";
+  EXPECT_EXIT(
+      {
+        setenv("RODMESH_TEST_SLOW_WRITE", "30", 1);
+        signalOnceTheTempFileExists(path, SIGINT);
+        writeArchive(fullArchive(), path);
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(130), "");
+  EXPECT_TRUE(dir.files().empty()) << "neither out.h5 nor its temporary file";
+}
+
+TEST(ArchiveInterruptDeathTest, SigtermDuringAWriteRemovesTheTemporaryFileAndExits143) {
+  TempDir dir;
+  const std::string path = dir / "out.h5";
+  EXPECT_EXIT(
+      {
+        setenv("RODMESH_TEST_SLOW_WRITE", "30", 1);
+        signalOnceTheTempFileExists(path, SIGTERM);
+        writeArchive(fullArchive(), path);
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(143), "");
+  EXPECT_TRUE(dir.files().empty());
+}
+
+TEST(ArchiveInterruptDeathTest, SecondSignalDuringTheFinalWriteRemovesTheTemporaryFile) {
+  // optimize: the first SIGINT stops the optimizer, which writes its archive;
+  // a SIGTERM during that write removes the temporary file and exits.
+  TempDir dir;
+  const std::string path = dir / "out.h5";
+  EXPECT_EXIT(
+      {
+        installInterruptFlag();
+        std::raise(SIGINT);
+        if (!interruptRequested()) std::exit(3);
+        setenv("RODMESH_TEST_SLOW_WRITE", "30", 1);
+        signalOnceTheTempFileExists(path, SIGTERM);
+        writeArchive(fullArchive(), path);
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(143), "");
+  EXPECT_TRUE(dir.files().empty());
+}
+
+TEST(ArchiveInterruptDeathTest, SecondSignalOutsideAWriteExitsAtOnce) {
+  EXPECT_EXIT(
+      {
+        installInterruptFlag();
+        std::raise(SIGINT);
+        if (!interruptRequested()) std::exit(3);
+        std::raise(SIGINT);
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(130), "");
 }
 
 }  // namespace

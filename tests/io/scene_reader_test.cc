@@ -833,5 +833,153 @@ TEST(SceneReader, UnknownKeysWarnButDoNotFail) {
   EXPECT_TRUE(lastSceneWarnings().empty());
 }
 
+// ---------------------------------------------------------------- optimize (contract §4)
+
+// baseScene with a target for its pose and a design block: valid for optimize.
+json optimizeScene() {
+  json j = baseScene();
+  j["poses"][0]["target"] = json::parse("[[0,0,0],[0.01,0,-0.001],[0.02,0,-0.002],[0.03,0,-0.003]]");
+  j["design"] =
+      json::parse(R"({"parameters": ["radii"], "radius_bounds": [0.0005, 0.005], "control_points_per_rod": 4})");
+  return j;
+}
+
+// Parses (which must succeed), then returns validateForOptimize's InputError
+// message; records a failure when nothing (or something else) is thrown.
+std::string optimizeErrorOf(const Scene& s) {
+  try {
+    validateForOptimize(s);
+  } catch (const InputError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "threw a non-InputError exception: " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "no InputError from validateForOptimize";
+  return "";
+}
+std::string optimizeErrorOf(const json& j) {
+  Scene s;
+  try {
+    s = parseScene(j.dump(1), kFile);
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "parseScene rejected the scene: " << e.what();
+    return "";
+  }
+  return optimizeErrorOf(s);
+}
+
+TEST(OptimizeValidation, AcceptsAValidScene) {
+  const Scene s = parseScene(optimizeScene().dump(), kFile);
+  EXPECT_NO_THROW(validateForOptimize(s));
+}
+
+TEST(OptimizeValidation, AcceptsMissingRadiusBounds) {
+  // The optimizer then uses [0.1 min, 10 max] of the initial radii.
+  json j = optimizeScene();
+  j["design"].erase("radius_bounds");
+  j["radius"] = {0.2, 0.1};  // far outside the bounds of optimizeScene
+  EXPECT_NO_THROW(validateForOptimize(parseScene(j.dump(), kFile)));
+}
+
+TEST(OptimizeValidation, AcceptsRestShapeOnlyAndZeroWeightBesidesAPositiveOne) {
+  json j = optimizeScene();
+  j["design"]["parameters"] = {"rest_shape"};
+  json second = j["poses"][0];
+  second["name"] = "ignored";
+  second["weight"] = 0.0;
+  j["poses"].push_back(second);
+  EXPECT_NO_THROW(validateForOptimize(parseScene(j.dump(), kFile)));
+}
+
+TEST(OptimizeValidation, RadiiOverrideAnOutOfBoundsRadius) {
+  json j = optimizeScene();
+  j["radius"] = {0.009, 0.009};  // outside the bounds, but every vertex has "radii"
+  j["radii"] = json::parse("[[0.002, 0.001], [0.002, 0.001], [0.002, 0.001], [0.002, 0.001]]");
+  EXPECT_NO_THROW(validateForOptimize(parseScene(j.dump(), kFile)));
+}
+
+TEST(OptimizeValidation, RejectsAMissingDesignBlock) {
+  json j = optimizeScene();
+  j.erase("design");
+  expectMessage(optimizeErrorOf(j), "design", {"missing", "parameters"});
+}
+
+TEST(OptimizeValidation, RejectsMissingParameters) {
+  json j = optimizeScene();
+  j["design"].erase("parameters");
+  expectMessage(optimizeErrorOf(j), "design.parameters", {"missing", "radii", "rest_shape"});
+}
+
+TEST(OptimizeValidation, RejectsEmptyParameters) {
+  json j = optimizeScene();
+  j["design"]["parameters"] = json::array();
+  expectMessage(optimizeErrorOf(j), "design.parameters", {"got []"});
+}
+
+TEST(OptimizeValidation, RejectsAPoseWithoutTarget) {
+  json j = optimizeScene();
+  json second = j["poses"][0];
+  second["name"] = "pull_left";
+  second.erase("target");
+  j["poses"].push_back(second);
+  expectMessage(optimizeErrorOf(j), "poses[1].target", {"pose 1", "\"pull_left\""});
+}
+
+TEST(OptimizeValidation, RejectsAUniformRadiusOutsideTheBounds) {
+  json j = optimizeScene();
+  j["design"]["radius_bounds"] = {0.0015, 0.005};  // r_n = 0.001 is below
+  expectMessage(optimizeErrorOf(j), "radius[1]",
+                {"r_n", "vertices 0 to 3", "design.radius_bounds [0.0015, 0.005]", "got 0.001"});
+}
+
+TEST(OptimizeValidation, RejectsAPerVertexRadiusOutsideTheBounds) {
+  json j = optimizeScene();
+  j["radii"] = json::parse("[[0.002, 0.001], [0.002, 0.001], [0.009, 0.001], [0.002, 0.001]]");
+  expectMessage(optimizeErrorOf(j), "radii[2][0]",
+                {"r_t", "vertex 2", "design.radius_bounds [0.0005, 0.005]", "got 0.009"});
+}
+
+TEST(OptimizeValidation, ReaderRejectsANonPositiveMaximumBound) {
+  json j = optimizeScene();
+  j["design"]["radius_bounds"] = {0.001, -0.002};
+  expectMessage(errorOf(j), "design.radius_bounds[1]", {"maximum", "-0.002"});
+}
+
+TEST(OptimizeValidation, RejectsANonPositiveBoundOfAProgrammaticScene) {
+  Scene s = parseScene(optimizeScene().dump(), kFile);
+  s.design.radiusMin = 0.0;
+  expectMessage(optimizeErrorOf(s), "design.radius_bounds[0]", {"got 0"});
+  s.design.radiusMin = 0.001;
+  s.design.radiusMax = -1.0;
+  expectMessage(optimizeErrorOf(s), "design.radius_bounds[1]", {"got -1"});
+}
+
+TEST(OptimizeValidation, RejectsTooFewControlPoints) {
+  // The reader rejects 1 already (TooFewControlPoints); a scene built in code is checked again.
+  Scene s = parseScene(optimizeScene().dump(), kFile);
+  s.design.controlPointsPerRod = 1;
+  expectMessage(optimizeErrorOf(s), "design.control_points_per_rod", {"at least 2", "got 1"});
+}
+
+TEST(OptimizeValidation, RejectsANegativeWeight) {
+  // The reader rejects it already (NegativePoseWeight); a scene built in code is checked again.
+  json j = optimizeScene();
+  j["poses"][0]["weight"] = -0.5;
+  expectMessage(errorOf(j), "poses[0].weight", {"-0.5"});
+  Scene s = parseScene(optimizeScene().dump(), kFile);
+  s.poses[0].weight = -0.5;
+  expectMessage(optimizeErrorOf(s), "poses[0].weight", {"non-negative", "got -0.5"});
+}
+
+TEST(OptimizeValidation, RejectsAllWeightsZero) {
+  json j = optimizeScene();
+  j["poses"][0]["weight"] = 0;
+  json second = j["poses"][0];
+  second["name"] = "other";
+  j["poses"].push_back(second);
+  expectMessage(optimizeErrorOf(j), "poses", {"zero", "poses[0].weight = 0", "poses[1].weight = 0"});
+}
+
 }  // namespace
 }  // namespace rodmesh
