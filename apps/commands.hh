@@ -27,6 +27,7 @@ struct Command {
 
 Command registerSimulate(CLI::App& root, const GlobalOptions& global);
 Command registerInspect(CLI::App& root, const GlobalOptions& global);
+Command registerOptimize(CLI::App& root, const GlobalOptions& global);
 #ifdef RODMESH_HAVE_MESHING
 Command registerMesh(CLI::App& root, const GlobalOptions& global);
 Command registerExport(CLI::App& root, const GlobalOptions& global);

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
 
   std::vector<Command> commands;
   commands.push_back(registerSimulate(app, global));
+  commands.push_back(registerOptimize(app, global));
   commands.push_back(registerInspect(app, global));
 #ifdef RODMESH_HAVE_MESHING
   commands.push_back(registerMesh(app, global));

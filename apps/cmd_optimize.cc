@@ -1,0 +1,214 @@
+// rodmesh optimize SCENE.json -o OUT.h5 [--method sand|reduced] ...: design
+// optimization (../shared/contracts.md §2 and §4). Finds the radii and rest
+// shape (design.parameters) for which every pose's equilibrium reproduces its
+// target, archives the design, its control points, the history, and every
+// pose re-solved from scratch under the final design.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include "apps/cli_common.hh"
+#include "apps/commands.hh"
+#include "io/interrupt.hh"
+#include "model/design_space.hh"
+#include "solver/design_optimizer.hh"
+#include "solver/equilibrium.hh"
+
+namespace rodmesh::cli {
+
+namespace {
+
+struct OptimizeOptions {
+  std::string scene;
+  std::string output;
+  std::string method;  // sand (default when built) or reduced
+  std::string schedule = "paper";
+  std::vector<std::string> ipopt;
+  DesignOptimizerOptions optimizer;
+};
+
+bool sandAvailable() {
+#ifdef RODMESH_HAVE_NLP
+  return true;
+#else
+  return false;
+#endif
+}
+
+void checkOptions(OptimizeOptions& o) {
+  if (o.method.empty()) o.method = sandAvailable() ? "sand" : "reduced";
+  if (o.method == "sand" && !sandAvailable())
+    throw InputError("optimize: --method sand: the Ipopt optimizer is not part of this build; use --method reduced");
+  if (!o.ipopt.empty() && o.method != "sand")
+    throw InputError("optimize: --ipopt applies to --method sand only, got --ipopt " + o.ipopt.front());
+  if (o.optimizer.maxIterations < 0)
+    throw InputError("optimize: --max-iter must be non-negative, got " + std::to_string(o.optimizer.maxIterations));
+  if (!(o.optimizer.timeLimit >= 0) || !std::isfinite(o.optimizer.timeLimit))
+    throw InputError("optimize: --time-limit must be a non-negative number of seconds, got " +
+                     std::to_string(o.optimizer.timeLimit));
+  if (!(o.optimizer.tolerance > 0 && o.optimizer.tolerance < 1))
+    throw InputError("optimize: --tol must lie in (0, 1), got " + std::to_string(o.optimizer.tolerance));
+  if (o.optimizer.threads < 1 || o.optimizer.threads > 256)
+    throw InputError("optimize: --threads must lie in [1, 256], got " + std::to_string(o.optimizer.threads));
+  o.optimizer.schedule = o.schedule == "joint" ? Schedule::Joint : Schedule::Paper;
+  if (std::string why = o.optimizer.isValid(); !why.empty()) throw InputError("optimize: " + why);
+}
+
+}  // namespace
+
+Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
+  auto opts = std::make_shared<OptimizeOptions>();
+  CLI::App* app = root.add_subcommand("optimize", "design radii and rest shape so that every pose reaches its target");
+  app->add_option("scene", opts->scene, "scene file with targets and a design block (rodmesh-scene/1 JSON)")
+      ->required();
+  app->add_option("-o,--output", opts->output, "result archive (HDF5)")->required();
+  app->add_option("--method", opts->method,
+                  "sand (simultaneous analysis and design, Ipopt; the default when built) or reduced (the paper's "
+                  "reduced-space BFGS)")
+      ->check(CLI::IsMember({"sand", "reduced"}));
+  app->add_option("--max-iter", opts->optimizer.maxIterations, "optimizer iterations over the whole schedule")
+      ->capture_default_str();
+  app->add_option("--time-limit", opts->optimizer.timeLimit, "wall-clock limit in seconds (0: none)")
+      ->capture_default_str();
+  app->add_option("--tol", opts->optimizer.tolerance,
+                  "relative tolerance: projected gradient against its value at the start of a phase, and relative "
+                  "decrease of the objective")
+      ->capture_default_str();
+  app->add_option("--schedule", opts->schedule,
+                  "paper (radii by levels, then rest shape and radii alternating) or joint (everything at once)")
+      ->check(CLI::IsMember({"paper", "joint"}))
+      ->capture_default_str();
+  app->add_option("--threads", opts->optimizer.threads, "poses solved in parallel (results do not depend on it)")
+      ->capture_default_str();
+  app->add_option("--ipopt", opts->ipopt, "KEY=VALUE option passed to Ipopt (--method sand; repeatable)");
+
+  Command c;
+  c.app = app;
+  c.run = [opts, app, &global]() -> int {
+    OptimizeOptions& o = *opts;
+    checkOptions(o);
+    checkOutputPath(o.output, "-o");
+    const Scene scene = readSceneFile(o.scene);
+    validateForOptimize(scene);
+    const bool quiet = global.quiet;
+    if (!quiet)
+      for (const std::string& w : lastSceneWarnings()) std::cerr << "warning: " << w << "\n";
+    std::unique_ptr<SceneModel> modelPtr;
+    std::unique_ptr<DesignSpace> spacePtr;
+    try {
+      modelPtr = std::make_unique<SceneModel>(scene);
+      spacePtr = std::make_unique<DesignSpace>(scene, modelPtr->effects());
+    } catch (const std::invalid_argument& e) {
+      throw InputError(scene.sourcePath + ": " + e.what());
+    }
+    SceneModel& model = *modelPtr;
+    const DesignSpace& space = *spacePtr;
+    if (!quiet) {
+      printEffects(model.effects(), model.network(), model.numPoses() > 0 ? model.pose(0).numDofs() : 0);
+      std::cerr << "design: " << (scene.design.radii ? "radii " : "") << (scene.design.restShape ? "rest_shape " : "")
+                << "free; " << space.describe() << "; radius bounds [" << space.radiusLower() << ", "
+                << space.radiusUpper() << "] m\n";
+      std::cerr << "method: " << o.method << ", schedule " << o.schedule << ", " << o.optimizer.threads
+                << " thread(s)\n";
+    }
+
+    installInterruptFlag();
+    o.optimizer.stopRequested = [] { return interruptRequested(); };
+    auto progress = [&](const DesignIterate& it) {
+      if (quiet) return;
+      std::fprintf(stderr, "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  |g| %.2e  step %.2e  viol 0 N  %s\n",
+                   it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.gradientNorm, it.step,
+                   formatSeconds(it.elapsed).c_str());
+    };
+    const DesignOptimizerResult r = optimizeReduced(model, space, o.optimizer, progress);
+    if (!quiet)
+      std::cerr << "optimizer: " << outcomeName(r.status.outcome) << " (" << r.status.message << "), " << r.iterations
+                << " iterations, " << r.evaluations << " evaluations, " << formatSeconds(r.timeSeconds) << "\n";
+
+    // Never report a design from the optimizer's own equilibria: re-solve
+    // every pose from scratch (Newton from rest) under the final design.
+    const Design& design = r.design;
+    const Design initial = space.toDesign(space.initialControls(scene));
+    Archive a;
+    a.version = versionString();
+    a.command = "optimize";
+    a.sceneJson = scene.sourceText;
+    describeModel(a, model.network(), model.effects(), model.numPoses() > 0 ? model.pose(0).numDofs() : 0);
+    setRestAndRadii(a, design.restPositions, design.radii);
+    a.initialRadii = toRows(initial.radii);
+    bool allSolved = true;
+    const SimulationResult sim = simulateAll(model, design, o.optimizer.newton);
+    for (int p = 0; p < model.numPoses(); ++p) {
+      const PoseResult& pr = sim.poses[p];
+      PoseSolveSummary sum;
+      sum.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
+      sum.residualNorm = pr.report.residualNorm;
+      sum.iterations = pr.report.iterations;
+      sum.timeSeconds = pr.report.timeSeconds;
+      if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
+      allSolved = allSolved && pr.report.converged;
+      ArchivePose ap = makeArchivePose(pr.name, pr.positions, model.effects().has(Effect::Twist) ? &pr.twist : nullptr,
+                                       scene.poses[p].target, sum);
+      std::vector<Vec3> own = pr.positions;
+      if (p < static_cast<int>(r.states.size()) && r.states[p].u.size() == model.pose(p).numDofs()) {
+        model.pose(p).setState(r.states[p]);
+        own = model.pose(p).positions(r.states[p].u, design);
+      }
+      setOptimizeResult(ap, r.initialPositions.size() > static_cast<std::size_t>(p) ? r.initialPositions[p] : pr.positions,
+                        own);
+      if (!quiet) {
+        std::fprintf(stderr, "pose %d '%s': re-solved from rest: %s, RMS %.4f mm (initial design %.4f mm), gap to the "
+                     "optimizer's equilibrium %.3e m\n",
+                     p, pr.name.c_str(), sum.status.c_str(), ap.rmsError.value_or(0.0) * 1e3,
+                     rmsError(r.initialPositions[p], scene.poses[p].target) * 1e3, ap.equilibriumGap.value_or(0.0));
+        if (!pr.report.converged) std::cerr << "  reason: " << pr.report.message << "\n";
+      }
+      a.poses.push_back(std::move(ap));
+    }
+    ArchiveHistory h;
+    for (const DesignIterate& it : r.history) {
+      h.iteration.push_back(it.iteration);
+      h.timeSeconds.push_back(it.elapsed);
+      h.objective.push_back(it.objective);
+      h.rmsError.push_back(it.rms);
+      h.level.push_back(it.level);
+      h.constraintViolation.push_back(0.0);
+      h.gradientNorm.push_back(it.gradientNorm);
+      h.phase.push_back(it.phase);
+    }
+    a.history = h;
+    ArchiveControlPoints cp;
+    cp.radii = MatX2(r.controls.radii.rows(), 2);
+    cp.radii = r.controls.radii;
+    cp.restDisplacement = MatX3(r.controls.displacement.rows(), 3);
+    cp.restDisplacement = r.controls.displacement;
+    for (const ControlPoint& c : space.controlPoints()) {
+      cp.rod.push_back(c.rod);
+      cp.arcFraction.push_back(c.arcFraction);
+      cp.vertex.push_back(c.vertex);
+    }
+    a.controlPoints = cp;
+    ArchiveOptimizeSummary s;
+    s.method = o.method;
+    s.iterations = r.iterations;
+    s.timeSeconds = r.timeSeconds;
+    s.message = r.status.message;
+    if (!allSolved) s.message += "; a pose did not converge when re-solved from rest under the final design";
+    a.optimize = s;
+    const bool converged = r.status.converged() && allSolved;
+    a.status = converged ? "converged" : (r.status.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
+    const std::optional<double> rms = overallRmsError(a);
+    writeArchive(a, o.output);
+    uninstallInterruptFlag();
+    if (!quiet) {
+      std::fprintf(stderr, "RMS error %.4f mm (initial design %.4f mm, %.1fx lower)\n", rms.value_or(0.0) * 1e3,
+                   r.initialRms * 1e3, rms && *rms > 0 ? r.initialRms / *rms : 0.0);
+      std::cerr << "wrote " << o.output << " (" << a.status << ")\n";
+    }
+    return converged ? kExitDone : kExitNotConverged;
+  };
+  return c;
+}
+
+}  // namespace rodmesh::cli

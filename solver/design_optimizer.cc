@@ -1,0 +1,393 @@
+#include "solver/design_optimizer.hh"
+
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <thread>
+
+namespace rodmesh {
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Runs fn(pose) for every pose on `threads` threads (static partition: the
+// result of each pose never depends on the thread count).
+template <class Fn>
+void forEachPose(int poses, int threads, Fn&& fn) {
+  threads = std::max(1, std::min(threads, poses));
+  if (threads == 1) {
+    for (int p = 0; p < poses; ++p) fn(p);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t)
+    pool.emplace_back([&, t] {
+      for (int p = t; p < poses; p += threads) fn(p);
+    });
+  for (std::thread& th : pool) th.join();
+}
+}  // namespace
+
+TargetObjective::TargetObjective(const Scene& scene, const EffectSet& effects) : scene_(scene), fx_(effects) {
+  for (const Pose& p : scene.poses) weights_.push_back(p.weight);
+}
+
+double TargetObjective::pose(const PoseSystem& sys, const Eigen::VectorXd& u, const Design& d, Eigen::VectorXd* dfdu,
+                             Eigen::VectorXd* dfdp, double* sumSquared) const {
+  const int k = sys.poseIndex();
+  const std::vector<Vec3>& target = scene_.poses[k].target;
+  const double w = weights_[k];
+  const std::vector<Vec3> x = sys.positions(u, d);
+  const auto& B = fx_.planeBasis;
+  double f = 0.0, ss = 0.0;
+  for (std::size_t v = 0; v < x.size(); ++v) {
+    const Vec3 r = x[v] - target[v];
+    ss += r.squaredNorm();
+    f += 0.5 * w * r.squaredNorm();
+    const int dof = sys.vertexDof()[v];
+    if (dof >= 0) {
+      if (!dfdu) continue;
+      if (sys.dofsPerVertex() == 3) dfdu->segment<3>(dof) += w * r;
+      else dfdu->segment<2>(dof) += w * (B.transpose() * r);
+    } else if (dfdp) {
+      // A held vertex follows its rest position (projected onto the plane of
+      // a planar scene), with the system's coefficient.
+      Vec3 gr = w * sys.heldDesignCoefficient(static_cast<int>(v)) * r;
+      if (sys.dofsPerVertex() == 2) gr = B * (B.transpose() * gr);
+      dfdp->segment<3>(Design::restIndex(static_cast<int>(v), 0)) += gr;
+    }
+  }
+  if (sumSquared) *sumSquared = ss;
+  return f;
+}
+
+double TargetObjective::rms(double sumSquared) const {
+  const double n = static_cast<double>(scene_.poses.size() * scene_.vertices.size());
+  return n > 0 ? std::sqrt(sumSquared / n) : 0.0;
+}
+
+std::string DesignOptimizerOptions::isValid() const {
+  if (maxIterations < 0) return "maximum iterations must be non-negative";
+  if (!(timeLimit >= 0) || !std::isfinite(timeLimit)) return "time limit must be a non-negative number of seconds";
+  if (!(tolerance > 0 && tolerance < 1)) return "tolerance must lie in (0, 1)";
+  if (threads < 1) return "threads must be at least 1";
+  if (maxAlternations < 0 || maxPhaseIterations < 1) return "bad schedule limits";
+  return newton.isValid();
+}
+
+// ------------------------------------------------------------------------
+
+ReducedObjective::ReducedObjective(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
+                                   const DesignPhase& phase, const ControlValues& base, const NewtonOptions& newton,
+                                   int threads, std::vector<PoseState> warm)
+    : model_(model),
+      space_(space),
+      objective_(objective),
+      phase_(phase),
+      base_(base),
+      newton_(newton),
+      threads_(threads),
+      J_(space.jacobian(phase)),
+      warm_(std::move(warm)) {}
+
+bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& states) {
+  const int n = model_.numPoses();
+  states = warm_;
+  std::vector<char> ok(n, 0), restarted(n, 0);
+  forEachPose(n, threads_, [&](int p) {
+    try {
+      PoseSystem& sys = model_.pose(p);
+      const NewtonReport r = solveEquilibrium(sys, d, states[p], newton_);
+      ok[p] = r.converged && states[p].loadFactor == 1.0;
+      restarted[p] = r.loadSteps > 1;
+    } catch (...) {
+      ok[p] = 0;
+    }
+  });
+  bool all = true;
+  for (int p = 0; p < n; ++p) {
+    all = all && ok[p];
+    restarts_ += restarted[p];
+  }
+  if (!all) failedSolves_++;
+  return all;
+}
+
+bool ReducedObjective::evaluate(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g) {
+  if (!z.allFinite()) return false;
+  const Design d = space_.toDesign(space_.unpack(phase_, z, base_));
+  std::vector<PoseState> states;
+  const bool cached = lastZ_.size() == z.size() && lastZ_ == z;
+  if (cached) {
+    states = lastStates_;
+  } else if (!solvePoses(d, states)) {
+    return false;
+  }
+  const int n = model_.numPoses();
+  std::vector<double> fk(n, 0.0), ssk(n, 0.0);
+  std::vector<Eigen::VectorXd> dfdp(n);
+  std::vector<char> ok(n, 1);
+  forEachPose(n, threads_, [&](int p) {
+    try {
+      PoseSystem& sys = model_.pose(p);
+      sys.setState(states[p]);
+      const Eigen::VectorXd& u = states[p].u;
+      if (!g) {
+        fk[p] = objective_.pose(sys, u, d, nullptr, nullptr, &ssk[p]);
+        return;
+      }
+      Eigen::VectorXd dfdu = Eigen::VectorXd::Zero(sys.numDofs());
+      dfdp[p] = Eigen::VectorXd::Zero(d.numParameters());
+      fk[p] = objective_.pose(sys, u, d, &dfdu, &dfdp[p], &ssk[p]);
+      if (sys.numDofs() == 0) return;
+      // Adjoint: H lambda = df/du with the equilibrium's Hessian.
+      double e;
+      Eigen::VectorXd grad;
+      sys.evaluate(u, d, e, grad, true);
+      Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(sys.hessian());
+      if (ldlt.info() != Eigen::Success) {
+        ok[p] = 0;
+        return;
+      }
+      const Eigen::VectorXd lambda = ldlt.solve(dfdu);
+      if (!lambda.allFinite()) {
+        ok[p] = 0;
+        return;
+      }
+      dfdp[p] -= sys.designForceProduct(u, d, lambda);
+    } catch (...) {
+      ok[p] = 0;
+    }
+  });
+  double ss = 0.0;
+  f = 0.0;
+  for (int p = 0; p < n; ++p) {
+    if (!ok[p]) return false;
+    f += fk[p];
+    ss += ssk[p];
+  }
+  if (!std::isfinite(f)) return false;
+  if (g) {
+    Eigen::VectorXd total = Eigen::VectorXd::Zero(d.numParameters());
+    for (int p = 0; p < n; ++p) total += dfdp[p];
+    *g = J_.transpose() * total;
+    if (!g->allFinite()) return false;
+  }
+  lastZ_ = z;
+  lastStates_ = std::move(states);
+  lastF_ = f;
+  lastSumSq_ = ss;
+  return true;
+}
+
+void ReducedObjective::accept(const Eigen::VectorXd& z) {
+  if (lastZ_.size() == z.size() && lastZ_ == z) warm_ = lastStates_;
+}
+
+// ------------------------------------------------------------------------
+
+namespace {
+
+const char* phaseName(const DesignPhase& ph) {
+  if (ph.radii && ph.restShape) return "joint";
+  return ph.radii ? "radii" : "rest_shape";
+}
+
+// Scale of each free variable (radii: the bound range; displacements: a tenth
+// of the mean rod length), so that BFGS steps are comparable across kinds.
+Eigen::VectorXd variableScale(const DesignSpace& space, const DesignPhase& ph, const Scene& scene) {
+  Eigen::VectorXd lo, hi;
+  space.bounds(ph, lo, hi);
+  double rodLength = 0.0;
+  for (const Rod& r : scene.rods)
+    for (std::size_t i = 1; i < r.vertices.size(); ++i)
+      rodLength += (scene.vertices[r.vertices[i]] - scene.vertices[r.vertices[i - 1]]).norm();
+  rodLength /= std::max<std::size_t>(1, scene.rods.size());
+  Eigen::VectorXd s(lo.size());
+  for (int i = 0; i < s.size(); ++i)
+    s[i] = std::isfinite(lo[i]) && std::isfinite(hi[i]) ? std::max(hi[i] - lo[i], 1e-12) : 0.1 * rodLength;
+  return s;
+}
+
+}  // namespace
+
+DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
+                                      const DesignOptimizerOptions& opt, const DesignProgress& progress) {
+  const auto t0 = Clock::now();
+  const Scene& scene = model.scene();
+  const TargetObjective objective(scene, model.effects());
+  DesignOptimizerResult res;
+  res.controls = space.initialControls(scene);
+  const int finest = space.numLevels() - 1;
+  const bool radii = scene.design.radii, rest = scene.design.restShape;
+
+  // Equilibria of the initial design, from rest.
+  Design d0 = space.toDesign(res.controls);
+  std::vector<PoseState> states(model.numPoses());
+  for (int p = 0; p < model.numPoses(); ++p) states[p] = model.pose(p).restState(d0);
+  {
+    DesignPhase any{radii, rest && !radii, finest};
+    ReducedObjective ro(model, space, objective, any, res.controls, opt.newton, opt.threads, states);
+    double f;
+    if (!ro.evaluate(space.pack(any, res.controls), f, nullptr)) {
+      res.status = {Outcome::NumericalFailure,
+                    "no equilibrium under the initial design: the poses cannot be solved as given"};
+      res.design = d0;
+      res.timeSeconds = since(t0);
+      return res;
+    }
+    ro.accept(space.pack(any, res.controls));
+    states = ro.warmStates();
+    res.initialObjective = f;
+    res.initialRms = objective.rms(ro.lastSumSquared());
+    for (int p = 0; p < model.numPoses(); ++p) {
+      model.pose(p).setState(states[p]);
+      res.initialPositions.push_back(model.pose(p).positions(states[p].u, d0));
+    }
+  }
+  res.objective = res.initialObjective;
+  res.rms = res.initialRms;
+  res.history.push_back({0, 0, "initial", res.objective, res.rms, 0.0, 0.0, since(t0), 1});
+  if (progress) progress(res.history.back());
+
+  // The schedule.
+  std::vector<DesignPhase> phases;
+  if (opt.schedule == Schedule::Joint) {
+    phases.push_back({radii, rest, finest});
+  } else {
+    if (radii)
+      for (int l = 0; l <= finest; ++l) phases.push_back({true, false, l});
+    if (rest) {
+      if (radii) {
+        for (int r = 0; r < opt.maxAlternations; ++r) {
+          phases.push_back({false, true, finest});
+          phases.push_back({true, false, finest});
+        }
+      } else {
+        phases.push_back({false, true, finest});
+      }
+    }
+  }
+
+  Outcome stop = Outcome::Converged;
+  std::string message = "schedule completed";
+  int iterations = 0;
+  double roundStart = res.objective;
+  for (std::size_t ph = 0; ph < phases.size(); ++ph) {
+    const DesignPhase& phase = phases[ph];
+    const bool alternating = opt.schedule == Schedule::Paper && radii && rest && ph >= static_cast<std::size_t>(finest + 1);
+    const int remaining = opt.maxIterations - iterations;
+    if (remaining <= 0) {
+      stop = Outcome::MaxIterations;
+      message = "iteration limit reached";
+      break;
+    }
+    const double elapsed = since(t0);
+    if (opt.timeLimit > 0 && elapsed >= opt.timeLimit) {
+      stop = Outcome::TimeLimit;
+      message = "time limit reached";
+      break;
+    }
+    ReducedObjective ro(model, space, objective, phase, res.controls, opt.newton, opt.threads, states);
+    const Eigen::VectorXd s = variableScale(space, phase, scene);
+    Eigen::VectorXd lo, hi;
+    space.bounds(phase, lo, hi);
+    const Eigen::VectorXd y0 = space.pack(phase, res.controls).cwiseQuotient(s);
+    BfgsOptions bo;
+    const bool lastPhase = ph + 1 == phases.size() || opt.schedule == Schedule::Joint;
+    bo.maxIterations = lastPhase ? remaining : std::min(remaining, opt.maxPhaseIterations);
+    bo.timeLimit = opt.timeLimit > 0 ? std::max(1e-3, opt.timeLimit - elapsed) : 0.0;
+    bo.gradientTolerance = opt.tolerance;
+    bo.relativeDecrease = opt.tolerance;
+    bo.initialMaxStep = 0.1;
+    bo.minStep = 1e-9;
+    bo.maxStepLimit = 10.0;
+    BfgsCallbacks cb;
+    cb.accepted = [&](const Eigen::VectorXd& y) { ro.accept(y.cwiseProduct(s)); };
+    cb.stopRequested = opt.stopRequested;
+    const int base = iterations;
+    cb.progress = [&](const BfgsIterate& it) {
+      if (it.iteration == 0) return;  // the phase's start is the previous phase's end
+      DesignIterate di;
+      di.iteration = base + it.iteration;
+      di.level = phase.level;
+      di.phase = phaseName(phase);
+      di.objective = it.f;
+      di.rms = objective.rms(ro.lastSumSquared());
+      di.gradientNorm = it.projectedGradientNorm;
+      di.step = it.step;
+      di.elapsed = since(t0);
+      di.evaluations = it.evaluations;
+      res.history.push_back(di);
+      if (progress) progress(di);
+    };
+    auto fobj = [&](const Eigen::VectorXd& y, double& f, Eigen::VectorXd* g) {
+      const bool ok = ro.evaluate(y.cwiseProduct(s), f, g);
+      if (ok && g) *g = g->cwiseProduct(s);
+      return ok;
+    };
+    const BfgsResult br = minimizeBfgs(fobj, y0, lo.cwiseQuotient(s), hi.cwiseQuotient(s), bo, cb);
+    iterations += br.iterations;
+    res.evaluations += br.evaluations;
+    res.failedEvaluations += br.failedEvaluations;
+    res.equilibriumRestarts += ro.restarts();
+    if (std::isfinite(br.f) && br.f <= res.objective) {
+      res.controls = space.unpack(phase, br.x.cwiseProduct(s), res.controls);
+      res.objective = br.f;
+      // Warm starts for the next phase: the equilibria at the best point.
+      double f;
+      if (ro.evaluate(br.x.cwiseProduct(s), f, nullptr)) ro.accept(br.x.cwiseProduct(s));
+      res.rms = objective.rms(ro.lastSumSquared());
+    }
+    states = ro.warmStates();
+    const Outcome o = br.status.outcome;
+    if (o == Outcome::TimeLimit || o == Outcome::Interrupted || o == Outcome::NumericalFailure) {
+      stop = o;
+      message = br.status.message;
+      break;
+    }
+    if (lastPhase) {
+      stop = o == Outcome::Stalled ? Outcome::Converged : o;
+      message = br.status.message;
+      if (o == Outcome::MaxIterations) message = "iteration limit reached";
+    }
+    // The alternation ends when a round (rest shape then radii) no longer
+    // lowers the objective by the tolerance.
+    if (alternating && !phase.restShape) {
+      const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
+      roundStart = res.objective;
+      if (gain <= opt.tolerance * 10) {
+        stop = Outcome::Converged;
+        message = "a rest-shape/radii round lowered the objective by less than the tolerance";
+        break;
+      }
+    } else if (alternating) {
+      // round start was recorded when the previous radii phase ended
+    }
+    if (!alternating && !lastPhase && ph == static_cast<std::size_t>(finest)) roundStart = res.objective;
+  }
+
+  res.design = space.toDesign(res.controls);
+  // The optimizer's own equilibria under the final design (warm started).
+  {
+    DesignPhase any{radii, rest && !radii, finest};
+    ReducedObjective ro(model, space, objective, any, res.controls, opt.newton, opt.threads, states);
+    double f;
+    if (ro.evaluate(space.pack(any, res.controls), f, nullptr)) {
+      ro.accept(space.pack(any, res.controls));
+      res.objective = f;
+      res.rms = objective.rms(ro.lastSumSquared());
+    }
+    res.states = ro.warmStates();
+  }
+  res.iterations = iterations;
+  res.status = {stop, message};
+  res.timeSeconds = since(t0);
+  return res;
+}
+
+}  // namespace rodmesh

@@ -1,0 +1,129 @@
+// Design optimization shared by both optimizers, and the paper's reduced-space
+// method (Pérez et al. 2015, §4.2-4.3; ../shared/contracts.md §4).
+//
+// Problem: minimise f = 1/2 sum_k w_k sum_v |q_kv - target_kv|^2 over the
+// design control values z (model/design_space.hh) subject to every pose's
+// static equilibrium F_k(u_k, p(z)) = dE_k/du_k = 0 and the radius bounds.
+// Positions q_kv are the pose's unknowns for free vertices and, for held
+// vertices, their prescribed positions, which move with the rest shape.
+//
+// Reduced-space method: u_k(z) is solved by Newton at every evaluation
+// (warm-started from the last accepted equilibrium with its charts, restarted
+// from rest when that fails); the gradient is the adjoint one,
+//   df/dz = J^T (df/dp - sum_k (dF_k/dp)^T lambda_k),  H_k lambda_k = df/du_k,
+// with exact design derivatives (PoseSystem::designForceProduct) and one
+// solve per pose with the equilibrium's Hessian. BFGS with a projected line
+// search (solver/bfgs.hh) drives z through the schedule: radii at levels
+// 0, 1, 2, then rest shape and radii alternating at the finest level
+// (--schedule paper), or everything at once (--schedule joint).
+#pragma once
+
+#include "model/design_space.hh"
+#include "model/outcome.hh"
+#include "solver/bfgs.hh"
+#include "solver/equilibrium.hh"
+#include "solver/newton.hh"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace rodmesh {
+
+// The objective of contract §4 for one pose, and its derivatives.
+class TargetObjective {
+ public:
+  TargetObjective(const Scene& scene, const EffectSet& effects);
+  // f_k, with df/du (size of u) and df/dp (Design vector, direct dependence
+  // through held vertices) added when asked.
+  // sumSquared (optional) receives sum_v |q_v - target_v|^2.
+  double pose(const PoseSystem& sys, const Eigen::VectorXd& u, const Design& d, Eigen::VectorXd* dfdu,
+              Eigen::VectorXd* dfdp, double* sumSquared = nullptr) const;
+  // Contract §3 RMS over all poses and vertices (m), from summed squared distances.
+  double rms(double sumSquared) const;
+  double weight(int pose) const { return weights_[pose]; }
+
+ private:
+  const Scene& scene_;
+  const EffectSet& fx_;
+  std::vector<double> weights_;
+};
+
+enum class Schedule { Paper, Joint };
+
+struct DesignOptimizerOptions {
+  int maxIterations = 200;     // optimizer iterations over the whole schedule
+  double timeLimit = 0.0;      // s, 0 = none
+  double tolerance = 1e-6;     // projected gradient relative to its start of phase, and relative decrease per phase
+  Schedule schedule = Schedule::Paper;
+  int threads = 1;             // poses solved in parallel; results do not depend on it
+  int maxAlternations = 6;     // rest-shape / radii rounds after the radius levels (paper schedule)
+  int maxPhaseIterations = 40; // BFGS iterations per phase of the alternation
+  NewtonOptions newton;        // equilibrium solves
+  std::function<bool()> stopRequested;  // SIGINT
+  std::string isValid() const;
+};
+
+// One optimizer iteration, for progress lines and the archive history.
+struct DesignIterate {
+  int iteration = 0;
+  int level = 0;
+  std::string phase;  // "radii", "rest_shape" or "joint"
+  double objective = 0.0, rms = 0.0, gradientNorm = 0.0, step = 0.0, elapsed = 0.0;
+  int evaluations = 0;
+};
+
+struct DesignOptimizerResult {
+  Status status;
+  ControlValues controls;                // final (best) design
+  Design design;
+  std::vector<PoseState> states;         // the optimizer's own equilibria under `design`
+  std::vector<std::vector<Vec3>> initialPositions;  // equilibria under the initial design
+  double initialObjective = 0.0, initialRms = 0.0;
+  double objective = 0.0, rms = 0.0;
+  int iterations = 0, evaluations = 0, failedEvaluations = 0, equilibriumRestarts = 0;
+  double timeSeconds = 0.0;
+  std::vector<DesignIterate> history;   // starts with iteration 0 (initial design)
+};
+
+using DesignProgress = std::function<void(const DesignIterate&)>;
+
+DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
+                                      const DesignOptimizerOptions& options, const DesignProgress& progress = {});
+
+// The reduced objective of one phase as a function of its free variables z:
+// value and adjoint gradient (exposed for tests).
+class ReducedObjective {
+ public:
+  ReducedObjective(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
+                   const DesignPhase& phase, const ControlValues& base, const NewtonOptions& newton, int threads,
+                   std::vector<PoseState> warm);
+  // f(z), and its gradient when g != nullptr. False when an equilibrium
+  // cannot be found under this design.
+  bool evaluate(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g);
+  // Makes the equilibria of the last successful evaluation at z the warm start.
+  void accept(const Eigen::VectorXd& z);
+  const std::vector<PoseState>& warmStates() const { return warm_; }
+  double lastSumSquared() const { return lastSumSq_; }
+  int failedSolves() const { return failedSolves_; }
+  int restarts() const { return restarts_; }
+
+ private:
+  bool solvePoses(const Design& d, std::vector<PoseState>& states);
+  SceneModel& model_;
+  const DesignSpace& space_;
+  const TargetObjective& objective_;
+  DesignPhase phase_;
+  ControlValues base_;
+  NewtonOptions newton_;
+  int threads_;
+  Eigen::SparseMatrix<double> J_;
+  std::vector<PoseState> warm_;
+  // Cache of the last successful evaluation.
+  Eigen::VectorXd lastZ_;
+  std::vector<PoseState> lastStates_;
+  double lastF_ = 0.0, lastSumSq_ = 0.0;
+  int failedSolves_ = 0, restarts_ = 0;
+};
+
+}  // namespace rodmesh
