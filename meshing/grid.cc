@@ -181,7 +181,8 @@ void validateGridOptions(const GridOptions& o) {
     bad("--radius-bounds must satisfy 0 < min <= max (got " + fmt(o.radiusMin) + ", " + fmt(o.radiusMax) + ")");
   if (o.radius.minCoeff() < o.radiusMin || o.radius.maxCoeff() > o.radiusMax)
     bad("--radius must lie within --radius-bounds");
-  if (o.controlPointsPerRod < 2) bad("--control-points must be at least 2");
+  if (o.controlPointsPerRod < 2 || o.controlPointsPerRod > 1000)  // as meshing::kMaxControlPoints
+    bad("--control-points must lie in [2, 1000] (got " + std::to_string(o.controlPointsPerRod) + ")");
   if (o.gravity && !o.gravity->allFinite()) bad("--gravity must be finite");
   for (const SidePull& p : o.pulls)
     if (!p.force.allFinite()) bad(std::string("--pull ") + gridSideName(p.side) + ": the force must be finite");

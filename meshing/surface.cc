@@ -74,7 +74,13 @@ std::string formatNumber(double v) {
   return buf;
 }
 
-enum class NumberStatus { Ok, Syntax, Overflow, NonFinite };
+std::string formatShort(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+enum class NumberStatus { Ok, Syntax, Overflow, NonFinite, TooLarge };
 
 // The whole token as a real number (C locale syntax). Overflow (1e999) and
 // inf/nan are reported as such; underflow to zero or a subnormal is accepted.
@@ -118,9 +124,19 @@ std::string realProblem(const std::string& what, const std::string& token, Numbe
     case NumberStatus::Syntax: return what + " " + quoted(token) + " is not a number";
     case NumberStatus::Overflow: return what + " " + quoted(token) + " overflows (beyond +-1.8e308)";
     case NumberStatus::NonFinite: return what + " " + quoted(token) + " is not finite";
+    case NumberStatus::TooLarge:
+      return what + " " + quoted(token) + " is too large (coordinates must lie within +-" +
+             formatShort(kMaxSurfaceCoordinate) + ")";
     case NumberStatus::Ok: break;
   }
   return what + " " + quoted(token);
+}
+
+// A vertex coordinate: a finite number within +-kMaxSurfaceCoordinate.
+NumberStatus parseCoordinate(const std::string& t, double& out) {
+  const NumberStatus st = parseReal(t, out);
+  if (st == NumberStatus::Ok && !(std::abs(out) <= kMaxSurfaceCoordinate)) return NumberStatus::TooLarge;
+  return st;
 }
 
 std::string integerProblem(const std::string& what, const std::string& token, NumberStatus st) {
@@ -218,7 +234,7 @@ PolygonSoup parseObj(const std::string& text, const std::string& path) {
       for (int k = 0; k < 3; ++k) {
         std::string tok;
         if (!(ls >> tok)) failLine("vertex needs three coordinates x y z: " + quoted(line));
-        const NumberStatus st = parseReal(tok, c[k]);
+        const NumberStatus st = parseCoordinate(tok, c[k]);
         if (st != NumberStatus::Ok) failLine(realProblem(std::string("vertex coordinate ") + kAxis[k], tok, st));
       }
       if (static_cast<long long>(soup.vertices.size()) >= kMaxCount) failLine("too many vertices");
@@ -292,7 +308,7 @@ PolygonSoup parseOff(const std::string& text, const std::string& path) {
       if (!tk.next(tok))
         fail(path, "vertex " + std::to_string(i) + ": the file ends before its three coordinates (the header declares " +
                        std::to_string(nv) + " vertices)");
-      const NumberStatus st = parseReal(tok, c[k]);
+      const NumberStatus st = parseCoordinate(tok, c[k]);
       if (st != NumberStatus::Ok)
         failLine("vertex " + std::to_string(i) + ": " + realProblem(std::string("coordinate ") + kAxis[k], tok, st));
     }
@@ -592,6 +608,9 @@ PolygonSoup parsePly(const std::string& data, const std::string& path) {
               if (!std::isfinite(v))
                 rd.failAt(e, i, std::string("vertex coordinate ") + kAxis[a] + " " + quoted(rd.text()) +
                                     " is not finite");
+              if (!(std::abs(v) <= kMaxSurfaceCoordinate))
+                rd.failAt(e, i, realProblem(std::string("vertex coordinate ") + kAxis[a], rd.text(),
+                                            NumberStatus::TooLarge));
               p[a] = v;
             }
         }
@@ -625,8 +644,11 @@ TriSurface validateSurface(const PolygonSoup& soup, const std::string& path, std
   s.sourcePath = path;
   if (soup.faces.empty()) fail(path, "the surface is empty (no faces)");
   const int nv = static_cast<int>(soup.vertices.size());
-  for (int i = 0; i < nv; ++i)
+  for (int i = 0; i < nv; ++i) {
     if (!soup.vertices[i].allFinite()) fail(path, "vertex " + std::to_string(i) + " has a non-finite coordinate");
+    if (!(soup.vertices[i].cwiseAbs().maxCoeff() <= kMaxSurfaceCoordinate))
+      fail(path, "vertex " + std::to_string(i) + " has a coordinate beyond +-" + formatShort(kMaxSurfaceCoordinate));
+  }
   s.vertices = soup.vertices;
   double diag = 0;
   {

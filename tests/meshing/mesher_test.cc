@@ -9,6 +9,9 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <limits>
+
 #include <cstdio>
 #include <set>
 
@@ -195,6 +198,73 @@ TEST(Mesher, RejectsInconsistentOptions) {
   o.method = MeshMethod::Dual;
   o.dualFaces = 100000;
   EXPECT_THROW(meshSurface(s, {}, {}, o), InputError);
+}
+
+// Every option out of its range is an InputError naming the flag and the value
+// (NaN and infinities included), before any work is done.
+TEST(Mesher, OptionsOutOfRangeNameTheFlagAndTheValue) {
+  struct Case {
+    std::function<void(MeshOptions&)> set;
+    std::string flag, value;
+  };
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Case> cases = {
+      {[](MeshOptions& o) { o.cvt.cells = 2147483647; }, "--cells", "2147483647"},
+      {[](MeshOptions& o) { o.cvt.cells = 1; }, "--cells", "1"},
+      {[](MeshOptions& o) { o.cvt.maxIterations = 100000; }, "--iterations", "100000"},
+      {[](MeshOptions& o) { o.cvt.restarts = 0; }, "--restarts", "0"},
+      {[nan](MeshOptions& o) { o.cvt.tolerance = nan; }, "--tolerance", "nan"},
+      {[](MeshOptions& o) { o.cvt.mergeFraction = -0.5; }, "--merge", "-0.5"},
+      {[](MeshOptions& o) { o.cvt.refinement = 2147483648.0; }, "--refinement", "2147483648"},
+      {[inf](MeshOptions& o) { o.cvt.refinement = inf; }, "--refinement", "inf"},
+      {[](MeshOptions& o) {
+         o.method = MeshMethod::Dual;
+         o.dualFaces = 2147483647;
+       },
+       "--faces", "2147483647"},
+      {[inf](MeshOptions& o) { o.edgeLength = inf; }, "--edge-length", "inf"},
+      {[](MeshOptions& o) { o.edgeLength = -1; }, "--edge-length", "-1"},
+      {[inf](MeshOptions& o) { o.material.youngModulus = inf; }, "--young-modulus", "inf"},
+      {[nan](MeshOptions& o) { o.material.poissonRatio = nan; }, "--poisson-ratio", "nan"},
+      {[](MeshOptions& o) { o.material.density = 0; }, "--material-density", "0"},
+      {[inf](MeshOptions& o) { o.radius = Vec2(inf, 0.002); }, "--radius", "inf"},
+      {[inf](MeshOptions& o) { o.radiusMax = inf; }, "--radius-bounds", "inf"},
+      {[](MeshOptions& o) { o.controlPointsPerRod = 100000; }, "--control-points", "100000"},
+      {[nan](MeshOptions& o) { o.gravity = Vec3(0, 0, nan); }, "--gravity", "nan"},
+      {[inf](MeshOptions& o) { o.fixBoxes.push_back({Vec3::Zero(), Vec3(1, 1, inf)}); }, "--fix-box", ""},
+  };
+  for (const Case& c : cases) {
+    MeshOptions o;
+    c.set(o);
+    try {
+      validateOptions(o);
+      ADD_FAILURE() << c.flag << " " << c.value << " accepted";
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(m.find(c.flag), 0u) << m;
+      EXPECT_NE(m.find(c.value), std::string::npos) << m;
+    }
+  }
+  EXPECT_NO_THROW(validateOptions(MeshOptions()));
+}
+
+TEST(Mesher, EdgeLengthAndSurfaceSizeAreBounded) {
+  MeshOptions o;
+  o.cvt.cells = 20;
+  o.edgeLength = 1e-9;  // about 1e8 rod vertices on this sphere
+  try {
+    meshSurface(testing::icosphere(0.05, 2), {}, {}, o);
+    ADD_FAILURE() << "--edge-length 1e-9 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--edge-length 1e-09 m gives about"), std::string::npos) << e.what();
+  }
+  o.edgeLength = 0;
+  try {
+    meshSurface(testing::icosphere(1e-8, 2), {}, {}, o);
+    ADD_FAILURE() << "a surface of 2e-8 m accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the surface spans"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
