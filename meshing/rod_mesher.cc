@@ -432,18 +432,27 @@ std::string formatReport(const MeshReport& r) {
 }
 
 namespace {
-std::vector<std::string> tokens(const std::string& path) {
+struct Token {
+  std::string text;
+  int line;
+};
+
+// Whitespace, comma or semicolon separated tokens with their 1-based lines;
+// '#' starts a comment.
+std::vector<Token> tokens(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open file");
-  std::vector<std::string> out;
+  std::vector<Token> out;
   std::string line;
-  while (std::getline(in, line)) {
+  int lineNo = 0;
+  while (std::getline(in, line)) {  // bounded by the file
+    ++lineNo;
     line = line.substr(0, line.find('#'));
     for (char& c : line)
       if (c == ',' || c == ';') c = ' ';
     std::istringstream ls(line);
     std::string t;
-    while (ls >> t) out.push_back(t);
+    while (ls >> t) out.push_back({t, lineNo});
   }
   return out;
 }
@@ -451,11 +460,12 @@ std::vector<std::string> tokens(const std::string& path) {
 
 std::vector<double> readDensityFile(const std::string& path, int nsv) {
   std::vector<double> d;
-  for (const std::string& t : tokens(path)) {
+  for (const Token& t : tokens(path)) {
     char* end = nullptr;
-    const double v = std::strtod(t.c_str(), &end);
-    if (*end != '\0' || !std::isfinite(v) || !(v > 0))
-      throw InputError(path + ": value " + std::to_string(d.size()) + " ('" + t + "') must be a positive number");
+    const double v = std::strtod(t.text.c_str(), &end);
+    if (end != t.text.c_str() + t.text.size() || !std::isfinite(v) || !(v > 0))
+      throw InputError(path + ": line " + std::to_string(t.line) + ": value " + std::to_string(d.size()) + " ('" +
+                       t.text + "') must be a positive finite number");
     d.push_back(v);
   }
   if (static_cast<int>(d.size()) != nsv)
@@ -466,11 +476,14 @@ std::vector<double> readDensityFile(const std::string& path, int nsv) {
 
 std::vector<int> readVertexListFile(const std::string& path, int nsv) {
   std::vector<int> out;
-  for (const std::string& t : tokens(path)) {
-    char* end = nullptr;
-    const long v = std::strtol(t.c_str(), &end, 10);
-    if (*end != '\0' || v < 0 || v >= nsv)
-      throw InputError(path + ": entry '" + t + "' is not a surface vertex index in [0, " + std::to_string(nsv) + ")");
+  for (const Token& t : tokens(path)) {
+    // Digits only ("2.5", "3abc", "1e3", "-1" are not indices), at most 18 of them (no overflow).
+    const bool digits = !t.text.empty() && t.text.size() <= 18 &&
+                        t.text.find_first_not_of("0123456789") == std::string::npos;
+    const long long v = digits ? std::stoll(t.text) : -1;
+    if (!digits || v >= nsv)
+      throw InputError(path + ": line " + std::to_string(t.line) + ": entry '" + t.text +
+                       "' is not a surface vertex index in [0, " + std::to_string(nsv) + ")");
     out.push_back(static_cast<int>(v));
   }
   if (out.empty()) throw InputError(path + ": lists no vertices");

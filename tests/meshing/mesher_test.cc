@@ -200,6 +200,32 @@ TEST(Mesher, RejectsInconsistentOptions) {
   EXPECT_THROW(meshSurface(s, {}, {}, o), InputError);
 }
 
+TEST(Mesher, DensityAndVertexListFilesNameLineAndValue) {
+  const std::string p = testing::tempPath(".txt");
+  auto expectRejected = [&](const std::string& text, int nsv, bool density, const std::string& fragment) {
+    testing::writeText(p, text);
+    try {
+      if (density)
+        readDensityFile(p, nsv);
+      else
+        readVertexListFile(p, nsv);
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(m.find(p + ": "), 0u) << m;
+      EXPECT_NE(m.find(fragment), std::string::npos) << m;
+    }
+  };
+  expectRejected("1 1\n1e999\n", 3, true, "line 2: value 2 ('1e999')");
+  expectRejected("1 nan 1\n", 3, true, "line 1: value 1 ('nan')");
+  expectRejected("# ids\n0, 1\n2.5\n", 4, false, "line 3: entry '2.5'");
+  expectRejected("0 99999999999999999999\n", 4, false, "line 1: entry '99999999999999999999'");
+  expectRejected("0 4294967299\n", 4, false, "'4294967299' is not a surface vertex index in [0, 4)");
+  expectRejected("-1\n", 4, false, "'-1'");
+  testing::writeText(p, "0, 3 # corners\n");
+  EXPECT_EQ(readVertexListFile(p, 4), (std::vector<int>{0, 3}));
+}
+
 // Every option out of its range is an InputError naming the flag and the value
 // (NaN and infinities included), before any work is done.
 TEST(Mesher, OptionsOutOfRangeNameTheFlagAndTheValue) {
