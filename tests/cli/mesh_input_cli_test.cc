@@ -4,8 +4,6 @@
 // offending value, and write nothing. Every command runs under `timeout`, so a
 // hang fails the test (status 124) instead of stalling the suite. Skipped when
 // the executable was built without the meshing module (no `mesh` verb).
-#include "tests/cli/cli_util.hh"
-
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -18,6 +16,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "tests/cli/cli_util.hh"
 
 namespace rodmesh {
 namespace {
@@ -68,7 +68,8 @@ class MeshInputCli : public ::testing::Test {
     EXPECT_EQ(status, 2) << err_;
     EXPECT_EQ(err_.rfind("rodmesh: error: ", 0), 0u) << err_;
     EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << "one message line expected:\n" << err_;
-    for (const std::string& f : fragments) EXPECT_NE(err_.find(f), std::string::npos) << "'" << f << "' not in " << err_;
+    for (const std::string& f : fragments)
+      EXPECT_NE(err_.find(f), std::string::npos) << "'" << f << "' not in " << err_;
     EXPECT_EQ(files(), inputs) << "something was written";
   }
 
@@ -106,7 +107,8 @@ TEST_F(MeshInputCli, BadIndicesAndCoordinatesInEveryFormat) {
     ASSERT_NE(status, kTimedOut);
     EXPECT_EQ(status, 2) << err_;
     EXPECT_EQ(err_.find("rodmesh: error: bad.obj: "), 0u) << err_;
-    for (const std::string& f : fragments) EXPECT_NE(err_.find(f), std::string::npos) << "'" << f << "' not in " << err_;
+    for (const std::string& f : fragments)
+      EXPECT_NE(err_.find(f), std::string::npos) << "'" << f << "' not in " << err_;
     EXPECT_EQ(files(), std::vector<std::string>{"bad.obj"});
   }
   // Binary PLY: the element entry instead of a line.
@@ -125,7 +127,8 @@ TEST_F(MeshInputCli, BadIndicesAndCoordinatesInEveryFormat) {
 
 TEST_F(MeshInputCli, HugeDeclaredCountsAreRejectedAtOnce) {
   // 1e18 entries without properties: used to loop for ever.
-  writeText(path("empty.ply"), "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000000000\nend_header\n");
+  writeText(path("empty.ply"),
+            "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000000000\nend_header\n");
   expectBadInput("mesh empty.ply -o out.json", {"empty.ply: line 3", "1000000000000000000"}, {"empty.ply"});
   writeText(path("ascii.ply"),
             "ply\nformat ascii 1.0\nelement vertex 2000000000\nproperty float x\nproperty float y\nproperty float z\n"
@@ -198,7 +201,8 @@ TEST_F(MeshInputCli, NumericFlagsOfMeshAreValidated) {
     EXPECT_EQ(status, 2) << err_;
     EXPECT_EQ(err_.rfind("rodmesh: error: ", 0), 0u) << err_;
     EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
-    for (const std::string& f : fragments) EXPECT_NE(err_.find(f), std::string::npos) << "'" << f << "' not in " << err_;
+    for (const std::string& f : fragments)
+      EXPECT_NE(err_.find(f), std::string::npos) << "'" << f << "' not in " << err_;
     EXPECT_EQ(files(), std::vector<std::string>{"s.obj"}) << "something was written";
   }
   // The grid route shares the finiteness check.

@@ -2,11 +2,6 @@
 // parsed strictly, and a bad index or coordinate is rejected with a message
 // naming the file, the line (ASCII) or element entry (binary PLY) and the
 // offending text, instead of being wrapped, truncated or read as inf.
-#include "meshing/surface.hh"
-
-#include "io/scene_reader.hh"
-#include "test_surfaces.hh"
-
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -15,6 +10,10 @@
 #include <initializer_list>
 #include <limits>
 #include <string>
+
+#include "io/scene_reader.hh"
+#include "meshing/surface.hh"
+#include "test_surfaces.hh"
 
 namespace rodmesh::meshing {
 namespace {
@@ -120,7 +119,7 @@ TEST(SurfaceReaderOff, CoordinatesAndHeaderCountsAreChecked) {
 const std::string kPlyAsciiHead =
     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
     "element face 1\nproperty list uchar int vertex_indices\nend_header\n"  // 9 header lines
-    "0 0 0\n1 0 0\n0 1 0\n";  // lines 10-12; the face is on line 13
+    "0 0 0\n1 0 0\n0 1 0\n";                                                // lines 10-12; the face is on line 13
 
 TEST(SurfaceReaderPly, AsciiIndicesAndCoordinatesAreChecked) {
   expectTextRejected(".ply", kPlyAsciiHead + "3 0 1 4294967299\n",
@@ -146,8 +145,10 @@ TEST(SurfaceReaderPly, HeaderCountsAreCheckedAgainstTheData) {
                      {"line 3", "'1e18'", "not an integer"});
   expectTextRejected(".ply", head + "element junk 1000000000000000000\nend_header\n",
                      {"line 3", "1000000000000000000", "at most 2147483647"});
-  expectTextRejected(".ply", head + "element vertex 2000000000\nproperty float x\nproperty float y\n"
-                                    "property float z\nend_header\n0 0 0\n",
+  expectTextRejected(".ply",
+                     head +
+                         "element vertex 2000000000\nproperty float x\nproperty float y\n"
+                         "property float z\nend_header\n0 0 0\n",
                      {"line 3", "'vertex' declares 2000000000 entries", "more than the remaining"});
   // An element without properties carries no data: skipped at once.
   const std::string p = tempPath(".ply");
@@ -160,8 +161,8 @@ TEST(SurfaceReaderPly, HeaderCountsAreCheckedAgainstTheData) {
 }
 
 // Binary little-endian PLY: 3 double vertices, faces as uchar count + `indexType` indices.
-std::string binaryPly(const double (*v)[3], int nv, const std::string& indexType, const std::string& faceBytes,
-                      int nf, long long declaredFaces = -1) {
+std::string binaryPly(const double (*v)[3], int nv, const std::string& indexType, const std::string& faceBytes, int nf,
+                      long long declaredFaces = -1) {
   std::string b = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(nv) +
                   "\nproperty double x\nproperty double y\nproperty double z\nelement face " +
                   std::to_string(declaredFaces < 0 ? nf : declaredFaces) + "\nproperty list uchar " + indexType +
@@ -181,7 +182,8 @@ const double kTri[3][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
 
 TEST(SurfaceReaderPly, BinaryIndicesAndCoordinatesAreChecked) {
   const std::uint32_t big = 4294967295u;
-  expectTextRejected(".ply", binaryPly(kTri, 3, "uint", face3<std::uint32_t>(0, 1, 2) + face3<std::uint32_t>(0, 1, big), 2),
+  expectTextRejected(".ply",
+                     binaryPly(kTri, 3, "uint", face3<std::uint32_t>(0, 1, 2) + face3<std::uint32_t>(0, 1, big), 2),
                      {"face 1 (binary data)", "'4294967295'", "out of range", "indices 0 to 2"});
   expectTextRejected(".ply", binaryPly(kTri, 3, "int", face3<std::int32_t>(0, -1, 2), 1),
                      {"face 0 (binary data)", "'-1'", "out of range"});
