@@ -22,9 +22,10 @@ Command registerExport(CLI::App& root, const GlobalOptions& global) {
   app->add_option("archive", o->archive, "result archive (HDF5) from simulate or optimize")->required();
   app->add_option("-o,--output", o->output, "solid to write: .stl (binary), .obj or .ply")->required();
   app->add_option("--pose", o->exp.pose, "export the equilibrium shape of this pose instead of the rest shape");
-  app->add_option("--resolution", o->exp.solid.resolution,
-                  "contouring grid step in metres, at most 1 (default: max(min radius / 2.5, median minor radius / 4)); "
-                  "refused if the solid would exceed 5e6 triangles");
+  app->add_option(
+      "--resolution", o->exp.solid.resolution,
+      "contouring grid step in metres, at most 1 (default: max(min radius / 2.5, median minor radius / 4)); "
+      "refused if the solid would exceed 5e6 triangles");
   app->add_option("--fillet", o->exp.solid.fillet,
                   "blend radius where rods meet, 0 to 1 metres (default: half the median minor radius; 0: sharp)");
 

@@ -72,9 +72,10 @@ double parseNumber(const std::string& t, const std::string& flag) {
 
 // Flags whose values are real numbers: each must be finite (requireFiniteNumbers).
 const std::vector<std::string> kRealFlags = {
-    "--scale",         "--refinement",       "--tolerance", "--merge",         "--edge-length", "--young-modulus",
-    "--poisson-ratio", "--material-density", "--radius",    "--radius-bounds", "--gravity",     "--fix-box",
-    "--size",          "--pull"};
+    "--scale",       "--refinement",    "--tolerance",     "--merge",
+    "--edge-length", "--young-modulus", "--poisson-ratio", "--material-density",
+    "--radius",      "--radius-bounds", "--gravity",       "--fix-box",
+    "--size",        "--pull"};
 
 // --scale: a unit conversion (0.001 for millimetres, 0.0254 for inches).
 constexpr double kMinScale = 1e-6, kMaxScale = 1e6;
@@ -199,11 +200,13 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       ->capture_default_str();
   app->add_option("--density", o->densityFile,
                   "per-vertex density file (one positive value per surface vertex); cells shrink as density^-1/4");
-  app->add_option("--iterations", o->mesh.cvt.maxIterations, "maximum Lloyd iterations (1 to 1000)")->capture_default_str();
+  app->add_option("--iterations", o->mesh.cvt.maxIterations, "maximum Lloyd iterations (1 to 1000)")
+      ->capture_default_str();
   app->add_option("--merge", o->mesh.cvt.mergeFraction,
                   "contract Voronoi edges shorter than this fraction of the median (0: never)")
       ->capture_default_str();
-  app->add_option("--refinement", o->mesh.cvt.refinement, "refined-mesh edges per cell radius used by the CVT (1 to 20)")
+  app->add_option("--refinement", o->mesh.cvt.refinement,
+                  "refined-mesh edges per cell radius used by the CVT (1 to 20)")
       ->capture_default_str();
   app->add_option("--restarts", o->mesh.cvt.restarts, "Lloyd runs from different starts, lowest energy kept (1 to 20)")
       ->capture_default_str();
@@ -221,7 +224,8 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app->add_option("--fix-vertices", o->fixVerticesFile,
                   "file of zero-based surface vertex indices; the nearest rod vertex of each is fixed");
-  app->add_option("--scale", o->scale, "multiply surface coordinates by this factor, 1e-6 to 1e6 (e.g. 0.001 for millimetres)")
+  app->add_option("--scale", o->scale,
+                  "multiply surface coordinates by this factor, 1e-6 to 1e6 (e.g. 0.001 for millimetres)")
       ->capture_default_str();
   app->add_option("--young-modulus", o->mesh.material.youngModulus, "Young's modulus [Pa]")->capture_default_str();
   app->add_option("--poisson-ratio", o->mesh.material.poissonRatio, "Poisson ratio")->capture_default_str();

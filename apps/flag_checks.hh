@@ -1,13 +1,14 @@
 // Checks of numeric flag values shared by the mesh and export verbs.
 #pragma once
 
+#include "io/scene_reader.hh"
+
 #include <CLI/CLI.hpp>
+
 #include <cmath>
 #include <cstdlib>
 #include <string>
 #include <vector>
-
-#include "io/scene_reader.hh"
 
 namespace rodmesh::cli {
 

@@ -478,8 +478,8 @@ std::vector<int> readVertexListFile(const std::string& path, int nsv) {
   std::vector<int> out;
   for (const Token& t : tokens(path)) {
     // Digits only ("2.5", "3abc", "1e3", "-1" are not indices), at most 18 of them (no overflow).
-    const bool digits = !t.text.empty() && t.text.size() <= 18 &&
-                        t.text.find_first_not_of("0123456789") == std::string::npos;
+    const bool digits =
+        !t.text.empty() && t.text.size() <= 18 && t.text.find_first_not_of("0123456789") == std::string::npos;
     const long long v = digits ? std::stoll(t.text) : -1;
     if (!digits || v >= nsv)
       throw InputError(path + ": line " + std::to_string(t.line) + ": entry '" + t.text +

@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <numeric>
 #include <unordered_map>
@@ -62,7 +62,7 @@ struct KuhnTets {
   }
 };
 
-constexpr int kBlock = 40;  // grid cells per block side
+constexpr int kBlock = 40;              // grid cells per block side
 constexpr double kMaxResolution = 1.0;  // [m], validateOptions
 
 // Marching tetrahedra on the Kuhn split give about this many triangles per
@@ -137,7 +137,8 @@ IndexedMesh sweepRods(const std::vector<SweepEdge>& input, const SolidOptions& o
     const SweepEdge& e = input[i];
     if (!(e.p0.allFinite() && e.p1.allFinite() && e.d1.allFinite() && e.d2.allFinite() && e.r0.allFinite() &&
           e.r1.allFinite() && e.r0.minCoeff() > 0 && e.r1.minCoeff() > 0))
-      throw InputError("rod edge " + std::to_string(i) + ": non-finite position or frame, or a radius that is not "
+      throw InputError("rod edge " + std::to_string(i) +
+                       ": non-finite position or frame, or a radius that is not "
                        "positive and finite");
     PreparedEdge p;
     p.p0 = e.p0;
@@ -174,7 +175,8 @@ IndexedMesh sweepRods(const std::vector<SweepEdge>& input, const SolidOptions& o
       if (reachable)
         m += ": use --resolution " + fmtShort(roundUp(hMin)) + " or coarser";
       else
-        m += "; no grid step up to " + fmtShort(kMaxResolution) + " m is within the limits: the design is too large "
+        m += "; no grid step up to " + fmtShort(kMaxResolution) +
+             " m is within the limits: the design is too large "
              "to export";
       throw InputError(m);
     }

@@ -70,8 +70,8 @@ struct SolidWork {
 
 struct SolidReport {
   double resolution = 0.0, fillet = 0.0;
-  SolidWork work;           // estimate at the step used
-  bool coarsened = false;   // the default step was coarsened to stay within the limits
+  SolidWork work;          // estimate at the step used
+  bool coarsened = false;  // the default step was coarsened to stay within the limits
   long long sampledPoints = 0;
   double seconds = 0.0;
 };

@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <functional>
@@ -121,13 +121,17 @@ NumberStatus parseInteger(const std::string& t, long long& out) {
 // "<what> '<token>' is not a number", "... overflows", "... is not finite".
 std::string realProblem(const std::string& what, const std::string& token, NumberStatus st) {
   switch (st) {
-    case NumberStatus::Syntax: return what + " " + quoted(token) + " is not a number";
-    case NumberStatus::Overflow: return what + " " + quoted(token) + " overflows (beyond +-1.8e308)";
-    case NumberStatus::NonFinite: return what + " " + quoted(token) + " is not finite";
+    case NumberStatus::Syntax:
+      return what + " " + quoted(token) + " is not a number";
+    case NumberStatus::Overflow:
+      return what + " " + quoted(token) + " overflows (beyond +-1.8e308)";
+    case NumberStatus::NonFinite:
+      return what + " " + quoted(token) + " is not finite";
     case NumberStatus::TooLarge:
       return what + " " + quoted(token) + " is too large (coordinates must lie within +-" +
              formatShort(kMaxSurfaceCoordinate) + ")";
-    case NumberStatus::Ok: break;
+    case NumberStatus::Ok:
+      break;
   }
   return what + " " + quoted(token);
 }
@@ -248,7 +252,8 @@ PolygonSoup parseObj(const std::string& text, const std::string& path) {
         long long v = 0;
         const NumberStatus st = parseInteger(tok.substr(0, tok.find('/')), v);
         if (st != NumberStatus::Ok) failLine(integerProblem("face index", tok, st));
-        if (v == 0) failLine("face index " + quoted(tok) + " is invalid: OBJ vertex indices start at 1 (or -1 from the end)");
+        if (v == 0)
+          failLine("face index " + quoted(tok) + " is invalid: OBJ vertex indices start at 1 (or -1 from the end)");
         if (v < 0) {
           if (-v > n)
             failLine("face index " + quoted(tok) + " counts back " + std::to_string(-v) + " vertices, but only " +
@@ -306,8 +311,9 @@ PolygonSoup parseOff(const std::string& text, const std::string& path) {
     for (int k = 0; k < 3; ++k) {
       std::string tok;
       if (!tk.next(tok))
-        fail(path, "vertex " + std::to_string(i) + ": the file ends before its three coordinates (the header declares " +
-                       std::to_string(nv) + " vertices)");
+        fail(path, "vertex " + std::to_string(i) +
+                       ": the file ends before its three coordinates (the header declares " + std::to_string(nv) +
+                       " vertices)");
       const NumberStatus st = parseCoordinate(tok, c[k]);
       if (st != NumberStatus::Ok)
         failLine("vertex " + std::to_string(i) + ": " + realProblem(std::string("coordinate ") + kAxis[k], tok, st));
@@ -320,8 +326,7 @@ PolygonSoup parseOff(const std::string& text, const std::string& path) {
     const std::string fn = "face " + std::to_string(f) + ": ";
     tk.skipLine();
     std::string tok;
-    if (!tk.next(tok))
-      fail(path, fn + "the file ends early (the header declares " + std::to_string(nf) + " faces)");
+    if (!tk.next(tok)) fail(path, fn + "the file ends early (the header declares " + std::to_string(nf) + " faces)");
     long long n = 0;
     NumberStatus st = parseInteger(tok, n);
     if (st != NumberStatus::Ok) failLine(fn + integerProblem("corner count", tok, st));
@@ -358,14 +363,22 @@ PlyType plyType(const std::string& t, const std::string& path, int line) {
 
 const char* plyTypeName(PlyType t) {
   switch (t) {
-    case PlyType::I8: return "char";
-    case PlyType::U8: return "uchar";
-    case PlyType::I16: return "short";
-    case PlyType::U16: return "ushort";
-    case PlyType::I32: return "int";
-    case PlyType::U32: return "uint";
-    case PlyType::F32: return "float";
-    case PlyType::F64: return "double";
+    case PlyType::I8:
+      return "char";
+    case PlyType::U8:
+      return "uchar";
+    case PlyType::I16:
+      return "short";
+    case PlyType::U16:
+      return "ushort";
+    case PlyType::I32:
+      return "int";
+    case PlyType::U32:
+      return "uint";
+    case PlyType::F32:
+      return "float";
+    case PlyType::F64:
+      return "double";
   }
   return "?";
 }
@@ -385,12 +398,24 @@ bool plyIsInteger(PlyType t) { return t != PlyType::F32 && t != PlyType::F64; }
 // Range of an integer PLY type.
 void plyIntegerRange(PlyType t, long long& lo, long long& hi) {
   switch (t) {
-    case PlyType::I8: lo = -128, hi = 127; return;
-    case PlyType::U8: lo = 0, hi = 255; return;
-    case PlyType::I16: lo = -32768, hi = 32767; return;
-    case PlyType::U16: lo = 0, hi = 65535; return;
-    case PlyType::I32: lo = -2147483648LL, hi = 2147483647LL; return;
-    default: lo = 0, hi = 4294967295LL; return;
+    case PlyType::I8:
+      lo = -128, hi = 127;
+      return;
+    case PlyType::U8:
+      lo = 0, hi = 255;
+      return;
+    case PlyType::I16:
+      lo = -32768, hi = 32767;
+      return;
+    case PlyType::U16:
+      lo = 0, hi = 65535;
+      return;
+    case PlyType::I32:
+      lo = -2147483648LL, hi = 2147483647LL;
+      return;
+    default:
+      lo = 0, hi = 4294967295LL;
+      return;
   }
 }
 
@@ -437,14 +462,54 @@ class PlyValueReader {
     if (format_ == 2) std::reverse(b, b + n);  // big endian -> little (x86 host)
     double v = 0;
     switch (t) {
-      case PlyType::I8: { int8_t x; std::memcpy(&x, b, 1); v = x; break; }
-      case PlyType::U8: { uint8_t x; std::memcpy(&x, b, 1); v = x; break; }
-      case PlyType::I16: { int16_t x; std::memcpy(&x, b, 2); v = x; break; }
-      case PlyType::U16: { uint16_t x; std::memcpy(&x, b, 2); v = x; break; }
-      case PlyType::I32: { int32_t x; std::memcpy(&x, b, 4); v = x; break; }
-      case PlyType::U32: { uint32_t x; std::memcpy(&x, b, 4); v = x; break; }
-      case PlyType::F32: { float x; std::memcpy(&x, b, 4); v = x; break; }
-      case PlyType::F64: { double x; std::memcpy(&x, b, 8); v = x; break; }
+      case PlyType::I8: {
+        int8_t x;
+        std::memcpy(&x, b, 1);
+        v = x;
+        break;
+      }
+      case PlyType::U8: {
+        uint8_t x;
+        std::memcpy(&x, b, 1);
+        v = x;
+        break;
+      }
+      case PlyType::I16: {
+        int16_t x;
+        std::memcpy(&x, b, 2);
+        v = x;
+        break;
+      }
+      case PlyType::U16: {
+        uint16_t x;
+        std::memcpy(&x, b, 2);
+        v = x;
+        break;
+      }
+      case PlyType::I32: {
+        int32_t x;
+        std::memcpy(&x, b, 4);
+        v = x;
+        break;
+      }
+      case PlyType::U32: {
+        uint32_t x;
+        std::memcpy(&x, b, 4);
+        v = x;
+        break;
+      }
+      case PlyType::F32: {
+        float x;
+        std::memcpy(&x, b, 4);
+        v = x;
+        break;
+      }
+      case PlyType::F64: {
+        double x;
+        std::memcpy(&x, b, 8);
+        v = x;
+        break;
+      }
     }
     text_ = formatNumber(v);
     return v;
@@ -462,8 +527,9 @@ class PlyValueReader {
       long long lo = 0, hi = 0;
       plyIntegerRange(t, lo, hi);
       if (v < lo || v > hi)
-        failAt(e, i, what + " " + quoted(text_) + " does not fit PLY type " + plyTypeName(t) + " (" +
-                         std::to_string(lo) + " to " + std::to_string(hi) + ")");
+        failAt(e, i,
+               what + " " + quoted(text_) + " does not fit PLY type " + plyTypeName(t) + " (" + std::to_string(lo) +
+                   " to " + std::to_string(hi) + ")");
       return static_cast<double>(v);
     }
     double v = 0;
@@ -510,7 +576,8 @@ PolygonSoup parsePly(const std::string& data, const std::string& path) {
       if (f == "ascii") format = 0;
       else if (f == "binary_little_endian") format = 1;
       else if (f == "binary_big_endian") format = 2;
-      else failLine("unknown PLY format " + quoted(f));
+      else
+        failLine("unknown PLY format " + quoted(f));
     } else if (kw == "element") {
       PlyElement e;
       e.line = lineNo;
@@ -597,7 +664,8 @@ PolygonSoup parsePly(const std::string& data, const std::string& path) {
             const double v = rd.read(pr.type, e, i, pr.name);
             if (!indices) continue;
             if (!(v >= 0 && v < static_cast<double>(declaredVertices)))
-              rd.failAt(e, i, "vertex index " + quoted(rd.text()) + " is out of range: " + vertexRange(declaredVertices));
+              rd.failAt(e, i,
+                        "vertex index " + quoted(rd.text()) + " is out of range: " + vertexRange(declaredVertices));
             if (v != std::floor(v)) rd.failAt(e, i, "vertex index " + quoted(rd.text()) + " is not an integer");
             face.push_back(static_cast<int>(v));
           }
@@ -606,11 +674,11 @@ PolygonSoup parsePly(const std::string& data, const std::string& path) {
           for (int a = 0; a < 3; ++a)
             if (isVertex && k == axis[a]) {
               if (!std::isfinite(v))
-                rd.failAt(e, i, std::string("vertex coordinate ") + kAxis[a] + " " + quoted(rd.text()) +
-                                    " is not finite");
+                rd.failAt(e, i,
+                          std::string("vertex coordinate ") + kAxis[a] + " " + quoted(rd.text()) + " is not finite");
               if (!(std::abs(v) <= kMaxSurfaceCoordinate))
-                rd.failAt(e, i, realProblem(std::string("vertex coordinate ") + kAxis[a], rd.text(),
-                                            NumberStatus::TooLarge));
+                rd.failAt(e, i,
+                          realProblem(std::string("vertex coordinate ") + kAxis[a], rd.text(), NumberStatus::TooLarge));
               p[a] = v;
             }
         }

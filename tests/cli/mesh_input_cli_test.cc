@@ -4,6 +4,8 @@
 // offending value, and write nothing. Every command runs under `timeout`, so a
 // hang fails the test (status 124) instead of stalling the suite. Skipped when
 // the executable was built without the meshing module (no `mesh` verb).
+#include "tests/cli/cli_util.hh"
+
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -16,8 +18,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include "tests/cli/cli_util.hh"
 
 namespace rodmesh {
 namespace {

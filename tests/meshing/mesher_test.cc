@@ -9,10 +9,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <functional>
 #include <limits>
-
-#include <cstdio>
 #include <set>
 
 namespace rodmesh::meshing {
@@ -257,7 +256,10 @@ TEST(Mesher, OptionsOutOfRangeNameTheFlagAndTheValue) {
       {[inf](MeshOptions& o) { o.radiusMax = inf; }, "--radius-bounds", "inf"},
       {[](MeshOptions& o) { o.controlPointsPerRod = 100000; }, "--control-points", "100000"},
       {[nan](MeshOptions& o) { o.gravity = Vec3(0, 0, nan); }, "--gravity", "nan"},
-      {[inf](MeshOptions& o) { o.fixBoxes.push_back({Vec3::Zero(), Vec3(1, 1, inf)}); }, "--fix-box", ""},
+      {[inf](MeshOptions& o) {
+         o.fixBoxes.push_back({Vec3::Zero(), Vec3(1, 1, inf)});
+       },
+       "--fix-box", ""},
   };
   for (const Case& c : cases) {
     MeshOptions o;

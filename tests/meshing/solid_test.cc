@@ -13,8 +13,8 @@
 
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <fstream>
+#include <limits>
 #include <sys/stat.h>
 
 namespace rodmesh::meshing {
@@ -122,8 +122,8 @@ TEST(Solid, ChecksCatchDefects) {
 TEST(Solid, WorkIsBoundedBeforeAnythingIsAllocated) {
   const auto edges = straightRod(Vec3(0, 0, 0), Vec3(0.05, 0, 0), 10, Vec2(0.002, 0.002), Vec3(0, 0, 1), 0);
   SolidOptions o;
-  o.resolution = 1e-6;      // ~3e9 triangles
-  o.maxTriangles = 20000;   // keeps the suggested step quick to run here
+  o.resolution = 1e-6;     // ~3e9 triangles
+  o.maxTriangles = 20000;  // keeps the suggested step quick to run here
   std::string suggestion;
   const auto t0 = std::chrono::steady_clock::now();
   try {
@@ -174,8 +174,8 @@ TEST(Solid, OptionsAndEdgesOutOfRangeAreInputErrors) {
   EXPECT_THROW(sweepRods(edges, SolidOptions()), InputError);
   // Far-apart rods: the bounding grid, not the triangles, is what is too large.
   auto far = straightRod(Vec3(0, 0, 0), Vec3(0.05, 0, 0), 4, Vec2(0.002, 0.002), Vec3(0, 0, 1), 0);
-  const auto other = straightRod(Vec3(1e4, 1e4, 1e4), Vec3(1e4 + 0.05, 1e4, 1e4), 4, Vec2(0.002, 0.002),
-                                 Vec3(0, 0, 1), 1);
+  const auto other =
+      straightRod(Vec3(1e4, 1e4, 1e4), Vec3(1e4 + 0.05, 1e4, 1e4), 4, Vec2(0.002, 0.002), Vec3(0, 0, 1), 1);
   far.insert(far.end(), other.begin(), other.end());
   SolidOptions o;
   o.resolution = 0.001;

@@ -2,6 +2,11 @@
 // parsed strictly, and a bad index or coordinate is rejected with a message
 // naming the file, the line (ASCII) or element entry (binary PLY) and the
 // offending text, instead of being wrapped, truncated or read as inf.
+#include "meshing/surface.hh"
+
+#include "io/scene_reader.hh"
+#include "test_surfaces.hh"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -10,10 +15,6 @@
 #include <initializer_list>
 #include <limits>
 #include <string>
-
-#include "io/scene_reader.hh"
-#include "meshing/surface.hh"
-#include "test_surfaces.hh"
 
 namespace rodmesh::meshing {
 namespace {
