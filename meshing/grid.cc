@@ -160,8 +160,9 @@ GridSide parseGridSide(const std::string& word, const std::string& flag) {
 
 void validateGridOptions(const GridOptions& o) {
   auto bad = [](const std::string& m) { throw InputError(m); };
-  if (!(o.width > 0 && std::isfinite(o.width) && o.height > 0 && std::isfinite(o.height)))
-    bad("--size must be two positive lengths W H in metres (got " + fmt(o.width) + " " + fmt(o.height) + ")");
+  // As meshing::kMinSurfaceSize / kMaxSurfaceSize for surfaces.
+  if (!(o.width >= 1e-6 && o.width <= 1e6 && o.height >= 1e-6 && o.height <= 1e6))
+    bad("--size must be two lengths W H in [1e-06, 1e+06] metres (got " + fmt(o.width) + " " + fmt(o.height) + ")");
   if (o.cellsX < 1 || o.cellsY < 1)
     bad("--cells must be two positive counts NX NY (got " + std::to_string(o.cellsX) + " " + std::to_string(o.cellsY) +
         ")");

@@ -207,6 +207,8 @@ TEST_F(MeshInputCli, NumericFlagsOfMeshAreValidated) {
   }
   // The grid route shares the finiteness check.
   expectBadInput("mesh --grid hex --size 1e999 0.2 --cells 2 2 -o out.json", {"--size", "'1e999'"}, {"s.obj"});
+  expectBadInput("mesh --grid hex --size 1e300 0.2 --cells 2 2 -o out.json", {"--size", "1e+300"}, {"s.obj"});
+  expectBadInput("mesh --grid hex --size 1e-300 0.2 --cells 2 2 -o out.json", {"--size", "1e-300"}, {"s.obj"});
   expectBadInput("mesh --grid hex --size 0.2 0.2 --cells 2 2 --pull right inf 0 0 -o out.json", {"--pull", "'inf'"},
                  {"s.obj"});
 }
