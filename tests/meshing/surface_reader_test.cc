@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdint>
 #include <cstring>
 #include <initializer_list>
@@ -43,6 +44,7 @@ void expectTextRejected(const std::string& suffix, const std::string& text,
   writeText(p, text);
   SCOPED_TRACE(text);
   expectRejected(p, fragments);
+  std::remove(p.c_str());
 }
 
 const std::string kObjVertices = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";  // lines 1-3; faces start on line 4
