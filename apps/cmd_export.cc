@@ -1,6 +1,7 @@
 // rodmesh export ARCHIVE.h5 -o OUT.{stl,obj,ply} [--pose NAME]: a printable,
 // one-piece solid of the designed rod mesh. See docs/meshing.md.
 #include "apps/commands.hh"
+#include "apps/flag_checks.hh"
 #include "meshing/export.hh"
 
 #include <iostream>
@@ -21,14 +22,20 @@ Command registerExport(CLI::App& root, const GlobalOptions& global) {
   app->add_option("archive", o->archive, "result archive (HDF5) from simulate or optimize")->required();
   app->add_option("-o,--output", o->output, "solid to write: .stl (binary), .obj or .ply")->required();
   app->add_option("--pose", o->exp.pose, "export the equilibrium shape of this pose instead of the rest shape");
-  app->add_option("--resolution", o->exp.solid.resolution,
-                  "contouring grid step in metres (default: max(min radius / 2.5, median minor radius / 4))");
+  app->add_option(
+      "--resolution", o->exp.solid.resolution,
+      "contouring grid step in metres, at most 1 (default: max(min radius / 2.5, median minor radius / 4)); "
+      "refused if the solid would exceed 5e6 triangles");
   app->add_option("--fillet", o->exp.solid.fillet,
-                  "blend radius where rods meet, metres (default: half the median minor radius; 0: sharp)");
+                  "blend radius where rods meet, 0 to 1 metres (default: half the median minor radius; 0: sharp)");
 
   Command c;
   c.app = app;
-  c.run = [o, &global]() -> int {
+  c.run = [o, app, &global]() -> int {
+    requireFiniteNumbers(*app, {"--resolution", "--fillet"});
+    if (app->count("--fillet") > 0 && !(o->exp.solid.fillet >= 0))
+      throw InputError("--fillet must be a blend radius in [0, 1] m (got " + app->get_option("--fillet")->results()[0] +
+                       ")");
     const meshing::ExportReport r = meshing::exportSolid(o->archive, o->output, o->exp);
     if (!global.quiet) std::cerr << meshing::formatExportReport(r) << "wrote " << o->output << "\n";
     return kExitDone;

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "apps/commands.hh"
+#include "apps/flag_checks.hh"
 #include "io/scene_reader.hh"
 #include "io/scene_writer.hh"
 #include "meshing/grid.hh"
@@ -67,6 +68,23 @@ double parseNumber(const std::string& t, const std::string& flag) {
   } catch (const std::exception&) {
   }
   throw InputError(flag + ": '" + t + "' is not a number");
+}
+
+// Flags whose values are real numbers: each must be finite (requireFiniteNumbers).
+const std::vector<std::string> kRealFlags = {
+    "--scale",       "--refinement",    "--tolerance",     "--merge",
+    "--edge-length", "--young-modulus", "--poisson-ratio", "--material-density",
+    "--radius",      "--radius-bounds", "--gravity",       "--fix-box",
+    "--size",        "--pull"};
+
+// --scale: a unit conversion (0.001 for millimetres, 0.0254 for inches).
+constexpr double kMinScale = 1e-6, kMaxScale = 1e6;
+
+std::string fmt(double v) {
+  std::ostringstream o;
+  o.precision(10);
+  o << v;
+  return o.str();
 }
 
 // Maps the grid flags onto GridOptions (material and design come from `m`).
@@ -149,7 +167,7 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
            }
            return true;
          },
-         "surface: number of cells of the centroidal Voronoi tessellation (default 64); "
+         "surface: number of cells of the centroidal Voronoi tessellation (default 64, at most 10000); "
          "--grid: cells across and up, NX NY")
       ->expected(1, 2)
       ->type_name("N|NX NY");
@@ -182,13 +200,15 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       ->capture_default_str();
   app->add_option("--density", o->densityFile,
                   "per-vertex density file (one positive value per surface vertex); cells shrink as density^-1/4");
-  app->add_option("--iterations", o->mesh.cvt.maxIterations, "maximum Lloyd iterations")->capture_default_str();
+  app->add_option("--iterations", o->mesh.cvt.maxIterations, "maximum Lloyd iterations (1 to 1000)")
+      ->capture_default_str();
   app->add_option("--merge", o->mesh.cvt.mergeFraction,
                   "contract Voronoi edges shorter than this fraction of the median (0: never)")
       ->capture_default_str();
-  app->add_option("--refinement", o->mesh.cvt.refinement, "refined-mesh edges per cell radius used by the CVT")
+  app->add_option("--refinement", o->mesh.cvt.refinement,
+                  "refined-mesh edges per cell radius used by the CVT (1 to 20)")
       ->capture_default_str();
-  app->add_option("--restarts", o->mesh.cvt.restarts, "Lloyd runs from different starts (lowest energy kept)")
+  app->add_option("--restarts", o->mesh.cvt.restarts, "Lloyd runs from different starts, lowest energy kept (1 to 20)")
       ->capture_default_str();
   app->add_option("--tolerance", o->mesh.cvt.tolerance, "Lloyd stops when no seed moves more than this x cell radius")
       ->capture_default_str();
@@ -204,7 +224,8 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app->add_option("--fix-vertices", o->fixVerticesFile,
                   "file of zero-based surface vertex indices; the nearest rod vertex of each is fixed");
-  app->add_option("--scale", o->scale, "multiply surface coordinates by this factor (e.g. 0.001 for millimetres)")
+  app->add_option("--scale", o->scale,
+                  "multiply surface coordinates by this factor, 1e-6 to 1e6 (e.g. 0.001 for millimetres)")
       ->capture_default_str();
   app->add_option("--young-modulus", o->mesh.material.youngModulus, "Young's modulus [Pa]")->capture_default_str();
   app->add_option("--poisson-ratio", o->mesh.material.poissonRatio, "Poisson ratio")->capture_default_str();
@@ -224,6 +245,7 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
   Command c;
   c.app = app;
   c.run = [o, app, &global]() -> int {
+    requireFiniteNumbers(*app, kRealFlags);
     if (!o->cellsSpill.empty()) {
       if (!o->surface.empty() || app->count("--grid") > 0)
         throw InputError("--cells: '" + o->cellsSpill + "' is not a cell count");
@@ -254,7 +276,9 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       m.cvt.boundary = meshing::BoundaryMode::Free;
     else
       throw InputError("--boundary must be 'rim' or 'free' (got '" + o->boundary + "')");
-    if (!(o->scale > 0)) throw InputError("--scale must be positive");
+    if (!(o->scale >= kMinScale && o->scale <= kMaxScale))
+      throw InputError("--scale must lie in [" + fmt(kMinScale) + ", " + fmt(kMaxScale) + "] (got " + fmt(o->scale) +
+                       ")");
     m.radius = o->radius.size() == 1 ? Vec2(o->radius[0], o->radius[0]) : Vec2(o->radius[0], o->radius[1]);
     m.radiusMin = o->radiusBounds[0];
     m.radiusMax = o->radiusBounds[1];

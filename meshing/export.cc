@@ -22,6 +22,13 @@ std::vector<SweepEdge> sweepEdgesFromArchive(const Archive& a, const std::string
     throw InputError(path + ": /rest/positions has " + std::to_string(a.restPositions.rows()) +
                      " rows; the scene has " + std::to_string(nv) + " vertices");
   }
+  auto requireFinite = [&](const auto& m, const std::string& dataset) {
+    for (Eigen::Index i = 0; i < m.rows(); ++i)
+      if (!m.row(i).allFinite())
+        throw InputError(path + ": " + dataset + " row " + std::to_string(i) + " is not finite");
+  };
+  requireFinite(a.restPositions, "/rest/positions");
+  requireFinite(a.radii, "/design/radii");
   std::vector<Vec2> radii = scene.radii;
   if (a.radii.rows() == nv) {
     for (int i = 0; i < nv; ++i) radii[i] = a.radii.row(i).transpose();
@@ -46,6 +53,7 @@ std::vector<SweepEdge> sweepEdgesFromArchive(const Archive& a, const std::string
     if (found->positions.rows() != nv)
       throw InputError(path + ": /poses/" + pose + "/positions has " + std::to_string(found->positions.rows()) +
                        " rows; the scene has " + std::to_string(nv) + " vertices");
+    requireFinite(found->positions, "/poses/" + pose + "/positions");
     for (int i = 0; i < nv; ++i) shape[i] = found->positions.row(i).transpose();
   }
   if (density) *density = scene.material.density;
@@ -82,7 +90,7 @@ std::vector<SweepEdge> sweepEdgesFromArchive(const Archive& a, const std::string
 ExportReport exportSolid(const std::string& archivePath, const std::string& outPath, const ExportOptions& opt) {
   const auto t0 = std::chrono::steady_clock::now();
   checkMeshExtension(outPath);
-  if (opt.solid.resolution < 0) throw InputError("--resolution must be positive");
+  validateOptions(opt.solid);
   const Archive a = readArchive(archivePath);
   double density = 0;
   const std::vector<SweepEdge> edges = sweepEdgesFromArchive(a, archivePath, opt.pose, &density);
@@ -107,7 +115,8 @@ std::string formatExportReport(const ExportReport& r) {
   o.setf(std::ios::fixed);
   o.precision(2);
   o << "solid (" << r.shape << "): " << r.triangles << " triangles, " << r.vertices << " vertices; grid "
-    << 1e3 * r.solid.resolution << " mm, fillet " << 1e3 * r.solid.fillet << " mm\n";
+    << 1e3 * r.solid.resolution << " mm" << (r.solid.coarsened ? " (default coarsened to stay within the limits)" : "")
+    << ", " << r.solid.sampledPoints << " samples, fillet " << 1e3 * r.solid.fillet << " mm\n";
   o << "checks: closed, manifold, no self-intersections, outward, one piece: "
     << (r.check.ok() ? "passed" : r.check.problems()) << "\n";
   o << "volume " << 1e6 * r.check.volume << " cm^3, mass " << 1e3 * r.mass << " g\n";

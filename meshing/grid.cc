@@ -160,8 +160,9 @@ GridSide parseGridSide(const std::string& word, const std::string& flag) {
 
 void validateGridOptions(const GridOptions& o) {
   auto bad = [](const std::string& m) { throw InputError(m); };
-  if (!(o.width > 0 && std::isfinite(o.width) && o.height > 0 && std::isfinite(o.height)))
-    bad("--size must be two positive lengths W H in metres (got " + fmt(o.width) + " " + fmt(o.height) + ")");
+  // As meshing::kMinSurfaceSize / kMaxSurfaceSize for surfaces.
+  if (!(o.width >= 1e-6 && o.width <= 1e6 && o.height >= 1e-6 && o.height <= 1e6))
+    bad("--size must be two lengths W H in [1e-06, 1e+06] metres (got " + fmt(o.width) + " " + fmt(o.height) + ")");
   if (o.cellsX < 1 || o.cellsY < 1)
     bad("--cells must be two positive counts NX NY (got " + std::to_string(o.cellsX) + " " + std::to_string(o.cellsY) +
         ")");
@@ -181,7 +182,8 @@ void validateGridOptions(const GridOptions& o) {
     bad("--radius-bounds must satisfy 0 < min <= max (got " + fmt(o.radiusMin) + ", " + fmt(o.radiusMax) + ")");
   if (o.radius.minCoeff() < o.radiusMin || o.radius.maxCoeff() > o.radiusMax)
     bad("--radius must lie within --radius-bounds");
-  if (o.controlPointsPerRod < 2) bad("--control-points must be at least 2");
+  if (o.controlPointsPerRod < 2 || o.controlPointsPerRod > 1000)  // as meshing::kMaxControlPoints
+    bad("--control-points must lie in [2, 1000] (got " + std::to_string(o.controlPointsPerRod) + ")");
   if (o.gravity && !o.gravity->allFinite()) bad("--gravity must be finite");
   for (const SidePull& p : o.pulls)
     if (!p.force.allFinite()) bad(std::string("--pull ") + gridSideName(p.side) + ": the force must be finite");

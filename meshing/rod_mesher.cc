@@ -128,23 +128,57 @@ Layout dualLayout(const TriSurface& s, int targetFaces) {
 
 }  // namespace
 
+namespace {
+std::string fmt(double v) {
+  std::ostringstream o;
+  o.precision(10);
+  o << v;
+  return o.str();
+}
+
+// Throws "FLAG must lie in [lo, hi] UNIT (got v)" unless lo <= v <= hi (NaN fails).
+void requireRange(const std::string& flag, double v, double lo, double hi, const std::string& unit = "") {
+  if (!(v >= lo && v <= hi))
+    throw InputError(flag + " must lie in [" + fmt(lo) + ", " + fmt(hi) + "]" + (unit.empty() ? "" : " " + unit) +
+                     " (got " + fmt(v) + ")");
+}
+// Throws unless 0 < v <= hi.
+void requirePositive(const std::string& flag, double v, double hi, const std::string& unit) {
+  if (!(v > 0 && v <= hi))
+    throw InputError(flag + " must be positive and at most " + fmt(hi) + " " + unit + " (got " + fmt(v) + ")");
+}
+}  // namespace
+
 void validateOptions(const MeshOptions& o) {
   auto bad = [](const std::string& m) { throw InputError(m); };
-  if (o.method == MeshMethod::Cells && o.cvt.cells < 2) bad("--cells must be at least 2");
-  if (o.method == MeshMethod::Dual && o.dualFaces < 4) bad("--faces must be at least 4");
-  if (!(o.edgeLength >= 0) || !std::isfinite(o.edgeLength)) bad("--edge-length must be positive");
-  if (!(o.material.youngModulus > 0)) bad("--young-modulus must be positive");
-  if (!(o.material.poissonRatio > -1 && o.material.poissonRatio < 0.5)) bad("--poisson-ratio must lie in (-1, 0.5)");
-  if (!(o.material.density > 0)) bad("--density-material must be positive");
-  if (!(o.radius[0] > 0 && o.radius[1] > 0)) bad("--radius values must be positive");
-  if (!(o.radiusMin > 0 && o.radiusMin <= o.radiusMax))
-    bad("--radius-bounds must satisfy 0 < min <= max (got " + std::to_string(o.radiusMin) + ", " +
-        std::to_string(o.radiusMax) + ")");
+  if (o.method == MeshMethod::Cells) {
+    requireRange("--cells", o.cvt.cells, 2, kMaxCells);
+    requireRange("--iterations", o.cvt.maxIterations, 1, kMaxLloydIterations);
+    requireRange("--restarts", o.cvt.restarts, 1, kMaxRestarts);
+    requireRange("--tolerance", o.cvt.tolerance, 0, 1, "x cell radius");
+    requireRange("--merge", o.cvt.mergeFraction, 0, 1, "x median Voronoi edge");
+    requireRange("--refinement", o.cvt.refinement, kMinRefinement, kMaxRefinement, "edges per cell radius");
+  }
+  if (o.method == MeshMethod::Dual) requireRange("--faces", o.dualFaces, 4, kMaxDualFaces);
+  if (o.edgeLength != 0) requirePositive("--edge-length", o.edgeLength, kMaxLength, "m");
+  requirePositive("--young-modulus", o.material.youngModulus, kMaxYoungModulus, "Pa");
+  if (!(o.material.poissonRatio > -1 && o.material.poissonRatio < 0.5))
+    bad("--poisson-ratio must lie in (-1, 0.5) (got " + fmt(o.material.poissonRatio) + ")");
+  requirePositive("--material-density", o.material.density, kMaxDensity, "kg/m^3");
+  for (int k = 0; k < 2; ++k) requirePositive("--radius", o.radius[k], kMaxLength, "m");
+  requirePositive("--radius-bounds", o.radiusMin, kMaxLength, "m");
+  requirePositive("--radius-bounds", o.radiusMax, kMaxLength, "m");
+  if (!(o.radiusMin <= o.radiusMax))
+    bad("--radius-bounds must satisfy 0 < min <= max (got " + fmt(o.radiusMin) + ", " + fmt(o.radiusMax) + ")");
   if (o.radius.minCoeff() < o.radiusMin || o.radius.maxCoeff() > o.radiusMax)
     bad("--radius must lie within --radius-bounds");
-  if (o.controlPointsPerRod < 2) bad("--control-points must be at least 2");
-  for (const auto& b : o.fixBoxes)
+  requireRange("--control-points", o.controlPointsPerRod, 2, kMaxControlPoints);
+  if (o.gravity)
+    for (int k = 0; k < 3; ++k) requireRange("--gravity", (*o.gravity)[k], -kMaxGravity, kMaxGravity, "m/s^2");
+  for (const auto& b : o.fixBoxes) {
+    if (!b.lo.allFinite() || !b.hi.allFinite()) bad("--fix-box coordinates must be finite");
     if (!(b.lo.array() <= b.hi.array()).all()) bad("--fix-box needs xmin <= xmax, ymin <= ymax, zmin <= zmax");
+  }
 }
 
 Layout buildLayout(const TriSurface& surface, const SurfaceTopology& topo, const MeshOptions& opt,
@@ -157,6 +191,13 @@ MeshResult meshSurface(const TriSurface& surface, const std::vector<DeformedPose
                        const std::vector<double>& density, const MeshOptions& opt) {
   const auto t0 = std::chrono::steady_clock::now();
   validateOptions(opt);
+  {
+    const double size = bboxDiagonal(surface);
+    if (!(size >= kMinSurfaceSize && size <= kMaxSurfaceSize))
+      throw InputError(surface.sourcePath + ": the surface spans " + fmt(size) +
+                       " m (bounding-box diagonal), outside the supported " + fmt(kMinSurfaceSize) + " to " +
+                       fmt(kMaxSurfaceSize) + " m: check the units (--scale)");
+  }
   const SurfaceTopology topo(surface);
   MeshResult res;
   MeshReport& rep = res.report;
@@ -216,6 +257,12 @@ MeshResult meshSurface(const TriSurface& surface, const std::vector<DeformedPose
       }
     if (n == 0) throw InputError(surface.sourcePath + ": no rod could be traced on the surface");
     if (h <= 0) h = sum / n / 10;
+    // Bound the work (one closest-point search per rod vertex) before resampling.
+    const double estimate = sum / h + opt.minEdgesPerRod * static_cast<double>(n);
+    if (!(estimate <= kMaxRodVertices))
+      throw InputError("--edge-length " + fmt(h) + " m gives about " + fmt(estimate) + " rod vertices on " +
+                       surface.sourcePath + " (limit " + fmt(kMaxRodVertices) + "; the rods total " + fmt(sum) +
+                       " m): use a longer edge length");
   }
   rep.edgeLength = h;
 
@@ -385,18 +432,27 @@ std::string formatReport(const MeshReport& r) {
 }
 
 namespace {
-std::vector<std::string> tokens(const std::string& path) {
+struct Token {
+  std::string text;
+  int line;
+};
+
+// Whitespace, comma or semicolon separated tokens with their 1-based lines;
+// '#' starts a comment.
+std::vector<Token> tokens(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open file");
-  std::vector<std::string> out;
+  std::vector<Token> out;
   std::string line;
-  while (std::getline(in, line)) {
+  int lineNo = 0;
+  while (std::getline(in, line)) {  // bounded by the file
+    ++lineNo;
     line = line.substr(0, line.find('#'));
     for (char& c : line)
       if (c == ',' || c == ';') c = ' ';
     std::istringstream ls(line);
     std::string t;
-    while (ls >> t) out.push_back(t);
+    while (ls >> t) out.push_back({t, lineNo});
   }
   return out;
 }
@@ -404,11 +460,12 @@ std::vector<std::string> tokens(const std::string& path) {
 
 std::vector<double> readDensityFile(const std::string& path, int nsv) {
   std::vector<double> d;
-  for (const std::string& t : tokens(path)) {
+  for (const Token& t : tokens(path)) {
     char* end = nullptr;
-    const double v = std::strtod(t.c_str(), &end);
-    if (*end != '\0' || !std::isfinite(v) || !(v > 0))
-      throw InputError(path + ": value " + std::to_string(d.size()) + " ('" + t + "') must be a positive number");
+    const double v = std::strtod(t.text.c_str(), &end);
+    if (end != t.text.c_str() + t.text.size() || !std::isfinite(v) || !(v > 0))
+      throw InputError(path + ": line " + std::to_string(t.line) + ": value " + std::to_string(d.size()) + " ('" +
+                       t.text + "') must be a positive finite number");
     d.push_back(v);
   }
   if (static_cast<int>(d.size()) != nsv)
@@ -419,11 +476,14 @@ std::vector<double> readDensityFile(const std::string& path, int nsv) {
 
 std::vector<int> readVertexListFile(const std::string& path, int nsv) {
   std::vector<int> out;
-  for (const std::string& t : tokens(path)) {
-    char* end = nullptr;
-    const long v = std::strtol(t.c_str(), &end, 10);
-    if (*end != '\0' || v < 0 || v >= nsv)
-      throw InputError(path + ": entry '" + t + "' is not a surface vertex index in [0, " + std::to_string(nsv) + ")");
+  for (const Token& t : tokens(path)) {
+    // Digits only ("2.5", "3abc", "1e3", "-1" are not indices), at most 18 of them (no overflow).
+    const bool digits =
+        !t.text.empty() && t.text.size() <= 18 && t.text.find_first_not_of("0123456789") == std::string::npos;
+    const long long v = digits ? std::stoll(t.text) : -1;
+    if (!digits || v >= nsv)
+      throw InputError(path + ": line " + std::to_string(t.line) + ": entry '" + t.text +
+                       "' is not a surface vertex index in [0, " + std::to_string(nsv) + ")");
     out.push_back(static_cast<int>(v));
   }
   if (out.empty()) throw InputError(path + ": lists no vertices");

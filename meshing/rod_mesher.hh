@@ -48,7 +48,28 @@ struct MeshOptions {
   std::vector<int> fixSurfaceVertices; // input vertices -> nearest rod vertex
 };
 
-// Throws InputError naming the flag for inconsistent options.
+// Limits checked by validateOptions (docs/meshing.md): beyond them the work,
+// or the result, is unreasonable. The CVT's refined mesh is capped at
+// CvtOptions::maxWorkFaces whatever the refinement, so its cost is bounded by
+// maxWorkFaces x iterations x restarts.
+constexpr int kMaxCells = 10000;           // --cells
+constexpr int kMaxLloydIterations = 1000;  // --iterations
+constexpr int kMaxRestarts = 20;           // --restarts
+constexpr double kMinRefinement = 1.0;     // --refinement
+constexpr double kMaxRefinement = 20.0;
+constexpr int kMaxDualFaces = 1000000;     // --faces
+constexpr double kMaxLength = 100.0;       // --edge-length, --radius, --radius-bounds [m]
+constexpr double kMaxYoungModulus = 1e13;  // [Pa]
+constexpr double kMaxDensity = 1e5;        // --material-density [kg/m^3]
+constexpr double kMaxGravity = 1e4;        // per component [m/s^2]
+constexpr int kMaxControlPoints = 1000;    // --control-points
+constexpr double kMaxRodVertices = 1e6;    // rod vertices of one mesh (edge length vs rod lengths)
+// meshSurface: the surface's bounding-box diagonal, in metres (after --scale).
+constexpr double kMinSurfaceSize = 1e-6;
+constexpr double kMaxSurfaceSize = 1e6;
+
+// Throws InputError naming the flag and the value for options out of range or
+// inconsistent (NaN and infinities are out of every range).
 void validateOptions(const MeshOptions& o);
 
 struct MeshReport {

@@ -45,17 +45,39 @@ struct SweepEdge {
 };
 
 struct SolidOptions {
-  double resolution = 0.0;  // grid spacing [m]; 0: max(min radius / 2.5, median minor radius / 4)
-  double fillet = -1.0;     // blend radius [m]; < 0: half the median minor radius; 0: sharp union
-  double maxActivePoints = 2.5e8;  // coarsen the grid if the sampled band would exceed this
+  double resolution = 0.0;  // grid spacing [m], at most 1 m; 0: max(min radius / 2.5, median minor radius / 4)
+  double fillet = -1.0;     // blend radius [m], at most 1 m; < 0: half the median minor radius; 0: sharp union
+  // Limits on the work, estimated before anything grid-sized is allocated. An
+  // explicit `resolution` beyond them is refused (InputError suggesting a
+  // coarser step); the default one is coarsened to fit. 5e6 triangles take
+  // about 3 GB of memory while contouring (and a 250 MB binary STL).
+  double maxTriangles = 5e6;       // estimated output triangles (~9 per h^2 of rod surface)
+  double maxActivePoints = 2.5e8;  // grid samples in the band around the rods
+  double maxBlocks = 1e6;          // 40^3-cell blocks of the bounding grid
+};
+
+// Throws InputError naming --resolution or --fillet for values out of range
+// (NaN and infinities included).
+void validateOptions(const SolidOptions& o);
+
+// Estimated work of sweepRods at one grid step.
+struct SolidWork {
+  double triangles = 0, samples = 0, blocks = 0;
+  bool within(const SolidOptions& o) const {
+    return triangles <= o.maxTriangles && samples <= o.maxActivePoints && blocks <= o.maxBlocks;
+  }
 };
 
 struct SolidReport {
   double resolution = 0.0, fillet = 0.0;
+  SolidWork work;          // estimate at the step used
+  bool coarsened = false;  // the default step was coarsened to stay within the limits
   long long sampledPoints = 0;
   double seconds = 0.0;
 };
 
+// Throws InputError for invalid options, non-finite or non-positive edge data,
+// or an explicit resolution whose estimated work exceeds the limits.
 IndexedMesh sweepRods(const std::vector<SweepEdge>& edges, const SolidOptions& opt, SolidReport* report = nullptr);
 
 // Result of the CGAL checks on a triangle mesh.

@@ -3,11 +3,15 @@
 #include "io/scene_reader.hh"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -38,83 +42,303 @@ std::string readAll(const std::string& path) {
   return ss.str();
 }
 
+// ---------------------------------------------------------------- numbers
+// Every number in a surface file is parsed strictly: the whole token must be
+// the number, reals must be finite and integers must fit, so that garbage
+// such as "2.5", "3abc", "1e999" or "4294967299" is reported with its file,
+// line and text instead of being truncated, wrapped or turned into inf.
+
+constexpr long long kMaxCount = std::numeric_limits<int>::max();  // vertices, faces, entries
+
+// A token for a message: quoted, at most 40 characters, other bytes escaped.
+std::string quoted(const std::string& t) {
+  std::string out = "'";
+  const std::size_t n = std::min<std::size_t>(t.size(), 40);
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char c = static_cast<unsigned char>(t[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out.push_back(static_cast<char>(c));
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    }
+  }
+  if (t.size() > n) out += "...";
+  return out + "'";
+}
+
+std::string formatNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+std::string formatShort(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+enum class NumberStatus { Ok, Syntax, Overflow, NonFinite, TooLarge };
+
+// The whole token as a real number (C locale syntax). Overflow (1e999) and
+// inf/nan are reported as such; underflow to zero or a subnormal is accepted.
+NumberStatus parseReal(const std::string& t, double& out) {
+  if (t.empty() || std::isspace(static_cast<unsigned char>(t[0]))) return NumberStatus::Syntax;
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(t.c_str(), &end);
+  if (end != t.c_str() + t.size()) return NumberStatus::Syntax;  // also catches embedded NUL bytes
+  if (errno == ERANGE && std::isinf(v)) return NumberStatus::Overflow;
+  if (!std::isfinite(v)) return NumberStatus::NonFinite;
+  out = v;
+  return NumberStatus::Ok;
+}
+
+// The whole token as a decimal integer: an optional sign and digits only.
+NumberStatus parseInteger(const std::string& t, long long& out) {
+  std::size_t i = 0;
+  const bool negative = !t.empty() && t[0] == '-';
+  if (!t.empty() && (t[0] == '-' || t[0] == '+')) i = 1;
+  if (i == t.size()) return NumberStatus::Syntax;
+  constexpr unsigned long long kMax = std::numeric_limits<long long>::max();
+  unsigned long long magnitude = 0;
+  bool overflow = false;
+  for (; i < t.size(); ++i) {  // bounded by the token length; scans on to report syntax first
+    if (t[i] < '0' || t[i] > '9') return NumberStatus::Syntax;
+    const unsigned d = static_cast<unsigned>(t[i] - '0');
+    if (overflow || magnitude > (kMax - d) / 10)
+      overflow = true;
+    else
+      magnitude = magnitude * 10 + d;
+  }
+  if (overflow) return NumberStatus::Overflow;
+  out = negative ? -static_cast<long long>(magnitude) : static_cast<long long>(magnitude);
+  return NumberStatus::Ok;
+}
+
+// "<what> '<token>' is not a number", "... overflows", "... is not finite".
+std::string realProblem(const std::string& what, const std::string& token, NumberStatus st) {
+  switch (st) {
+    case NumberStatus::Syntax:
+      return what + " " + quoted(token) + " is not a number";
+    case NumberStatus::Overflow:
+      return what + " " + quoted(token) + " overflows (beyond +-1.8e308)";
+    case NumberStatus::NonFinite:
+      return what + " " + quoted(token) + " is not finite";
+    case NumberStatus::TooLarge:
+      return what + " " + quoted(token) + " is too large (coordinates must lie within +-" +
+             formatShort(kMaxSurfaceCoordinate) + ")";
+    case NumberStatus::Ok:
+      break;
+  }
+  return what + " " + quoted(token);
+}
+
+// A vertex coordinate: a finite number within +-kMaxSurfaceCoordinate.
+NumberStatus parseCoordinate(const std::string& t, double& out) {
+  const NumberStatus st = parseReal(t, out);
+  if (st == NumberStatus::Ok && !(std::abs(out) <= kMaxSurfaceCoordinate)) return NumberStatus::TooLarge;
+  return st;
+}
+
+std::string integerProblem(const std::string& what, const std::string& token, NumberStatus st) {
+  if (st == NumberStatus::Overflow) return what + " " + quoted(token) + " is too large";
+  return what + " " + quoted(token) + " is not an integer";
+}
+
+// "the file has 4 vertices (indices 0 to 3)" for 0-based formats.
+std::string vertexRange(long long nv) {
+  if (nv == 0) return "the file has no vertices";
+  return "the file has " + std::to_string(nv) + (nv == 1 ? " vertex" : " vertices") + " (indices 0 to " +
+         std::to_string(nv - 1) + ")";
+}
+
+// Whitespace-separated tokens of a text with their 1-based line numbers;
+// optionally '#' starts a comment that runs to the end of the line.
+class Tokens {
+ public:
+  Tokens(const std::string& text, std::size_t pos, int firstLine, bool hashComments)
+      : text_(text), pos_(pos), line_(firstLine), hashComments_(hashComments) {}
+
+  // The next token, or false at the end of the text.
+  bool next(std::string& tok) {
+    skipSpace(true);
+    if (pos_ >= text_.size()) return false;
+    tokenLine_ = line_;
+    const std::size_t start = pos_;
+    while (pos_ < text_.size() && !isSpace(text_[pos_]) && !(hashComments_ && text_[pos_] == '#')) ++pos_;
+    tok.assign(text_, start, pos_ - start);
+    return true;
+  }
+  // True when another token follows on the line of the last token.
+  bool moreOnLine() {
+    skipSpace(false);
+    return pos_ < text_.size() && text_[pos_] != '\n';
+  }
+  // Drops the rest of the current line.
+  void skipLine() {
+    const std::size_t e = text_.find('\n', pos_);
+    pos_ = e == std::string::npos ? text_.size() : e;  // the newline itself is counted by skipSpace
+  }
+  int line() const { return tokenLine_; }
+
+ private:
+  static bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f'; }
+  void skipSpace(bool newlines) {
+    while (pos_ < text_.size()) {
+      const char c = text_[pos_];
+      if (c == '\n') {
+        if (!newlines) return;
+        ++line_;
+        ++pos_;
+      } else if (isSpace(c)) {
+        ++pos_;
+      } else if (hashComments_ && c == '#') {
+        const std::size_t e = text_.find('\n', pos_);
+        pos_ = e == std::string::npos ? text_.size() : e;
+      } else {
+        return;
+      }
+    }
+  }
+
+  const std::string& text_;
+  std::size_t pos_;
+  int line_, tokenLine_ = 0;
+  bool hashComments_;
+};
+
+const char* const kAxis[3] = {"x", "y", "z"};
+
 // ---------------------------------------------------------------- OBJ
 PolygonSoup parseObj(const std::string& text, const std::string& path) {
   PolygonSoup soup;
+  // A positive index may refer to a vertex defined further down the file; such
+  // forward references are checked against the final vertex count.
+  struct Forward {
+    long long index;
+    int line;
+    std::string token;
+  };
+  std::vector<Forward> forward;
   std::istringstream in(text);
   std::string line;
   int lineNo = 0;
-  while (std::getline(in, line)) {
+  auto failLine = [&](const std::string& what) { fail(path, "line " + std::to_string(lineNo) + ": " + what); };
+  while (std::getline(in, line)) {  // bounded by the file
     ++lineNo;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream ls(line);
     std::string tag;
     if (!(ls >> tag) || tag[0] == '#') continue;
     if (tag == "v") {
-      double x, y, z;
-      if (!(ls >> x >> y >> z))
-        fail(path, "line " + std::to_string(lineNo) + ": vertex needs three coordinates: '" + line + "'");
-      soup.vertices.emplace_back(x, y, z);
+      double c[3];
+      for (int k = 0; k < 3; ++k) {
+        std::string tok;
+        if (!(ls >> tok)) failLine("vertex needs three coordinates x y z: " + quoted(line));
+        const NumberStatus st = parseCoordinate(tok, c[k]);
+        if (st != NumberStatus::Ok) failLine(realProblem(std::string("vertex coordinate ") + kAxis[k], tok, st));
+      }
+      if (static_cast<long long>(soup.vertices.size()) >= kMaxCount) failLine("too many vertices");
+      soup.vertices.emplace_back(c[0], c[1], c[2]);
     } else if (tag == "f") {
       std::vector<int> face;
       std::string tok;
-      while (ls >> tok) {
-        const std::string idx = tok.substr(0, tok.find('/'));
-        char* end = nullptr;
-        long v = std::strtol(idx.c_str(), &end, 10);
-        if (idx.empty() || *end != '\0' || v == 0)
-          fail(path, "line " + std::to_string(lineNo) + ": bad face index '" + tok + "'");
-        // OBJ indices are 1-based; negative ones count back from the last vertex.
-        long i = v > 0 ? v - 1 : static_cast<long>(soup.vertices.size()) + v;
-        face.push_back(static_cast<int>(i));
+      const long long n = static_cast<long long>(soup.vertices.size());
+      while (ls >> tok) {  // bounded by the line
+        // v, v/vt, v//vn or v/vt/vn: the vertex index is the part before '/'.
+        long long v = 0;
+        const NumberStatus st = parseInteger(tok.substr(0, tok.find('/')), v);
+        if (st != NumberStatus::Ok) failLine(integerProblem("face index", tok, st));
+        if (v == 0)
+          failLine("face index " + quoted(tok) + " is invalid: OBJ vertex indices start at 1 (or -1 from the end)");
+        if (v < 0) {
+          if (-v > n)
+            failLine("face index " + quoted(tok) + " counts back " + std::to_string(-v) + " vertices, but only " +
+                     std::to_string(n) + " are defined before this line");
+          face.push_back(static_cast<int>(n + v));
+        } else {
+          if (v > n) forward.push_back({v, lineNo, tok});
+          face.push_back(v > kMaxCount ? -1 : static_cast<int>(v - 1));
+        }
       }
+      if (static_cast<long long>(soup.faces.size()) >= kMaxCount) failLine("too many faces");
       soup.faces.push_back(std::move(face));
     }
     // vn, vt, g, o, s, usemtl, mtllib, l, ...: ignored.
   }
+  const long long nv = static_cast<long long>(soup.vertices.size());
+  for (const Forward& f : forward)
+    if (f.index > nv)
+      fail(path, "line " + std::to_string(f.line) + ": face index " + quoted(f.token) + " is out of range: " +
+                     (nv == 0 ? std::string("the file has no vertices")
+                              : "the file has " + std::to_string(nv) + " vertices (OBJ indices 1 to " +
+                                    std::to_string(nv) + ", or -1 to -" + std::to_string(nv) + " from the end)"));
   return soup;
 }
 
 // ---------------------------------------------------------------- OFF
 PolygonSoup parseOff(const std::string& text, const std::string& path) {
-  // Strip comments, then read tokens.
-  std::string clean;
-  clean.reserve(text.size());
-  bool comment = false;
-  for (char c : text) {
-    if (c == '#') comment = true;
-    if (c == '\n') comment = false;
-    clean.push_back(comment ? ' ' : c);
-  }
-  std::istringstream in(clean);
+  Tokens tk(text, 0, 1, true);
+  auto failLine = [&](const std::string& what) { fail(path, "line " + std::to_string(tk.line()) + ": " + what); };
   std::string head;
-  in >> head;
+  if (!tk.next(head)) fail(path, "not an OFF file (it is empty)");
   if (head.size() < 3 || head.substr(head.size() - 3) != "OFF")
-    fail(path, "not an OFF file (first token '" + head + "', expected 'OFF')");
-  if (head != "OFF")
-    fail(path, "OFF variant '" + head + "' is not supported (plain OFF only)");
-  long nv = -1, nf = -1, ne = -1;
-  if (!(in >> nv >> nf >> ne) || nv < 0 || nf < 0) fail(path, "bad OFF header counts");
-  PolygonSoup soup;
-  for (long i = 0; i < nv; ++i) {
-    double x, y, z;
-    if (!(in >> x >> y >> z)) fail(path, "vertex " + std::to_string(i) + ": cannot read three coordinates");
-    soup.vertices.emplace_back(x, y, z);
+    fail(path, "not an OFF file (first token " + quoted(head) + ", expected 'OFF')");
+  if (head != "OFF") fail(path, "OFF variant " + quoted(head) + " is not supported (plain OFF only)");
+  long long counts[3] = {0, 0, 0};
+  const char* const names[3] = {"vertex count", "face count", "edge count"};
+  for (int k = 0; k < 3; ++k) {
+    std::string tok;
+    if (!tk.next(tok))
+      fail(path, std::string("the OFF header ends before its ") + names[k] +
+                     " (expected 'OFF', then the vertex, face and edge counts)");
+    const NumberStatus st = parseInteger(tok, counts[k]);
+    if (st != NumberStatus::Ok) failLine(integerProblem(std::string("OFF header ") + names[k], tok, st));
+    if (counts[k] < 0) failLine(std::string("OFF header ") + names[k] + " " + quoted(tok) + " is negative");
   }
-  std::string rest;
-  std::getline(in, rest);  // end of the last vertex line
-  for (long f = 0; f < nf; ++f) {
-    std::string line;
-    do {
-      if (!std::getline(in, line)) fail(path, "face " + std::to_string(f) + ": unexpected end of file");
-    } while (line.find_first_not_of(" \t\r") == std::string::npos);
-    std::istringstream ls(line);
-    long n;
-    if (!(ls >> n) || n < 0) fail(path, "face " + std::to_string(f) + ": bad corner count");
+  const long long nv = counts[0], nf = counts[1];
+  // Each vertex takes at least 6 bytes ("0 0 0\n"), each face at least 2 ("0\n").
+  if (nv > kMaxCount || nf > kMaxCount || 6.0 * nv + 2.0 * nf > static_cast<double>(text.size()) + 2)
+    failLine("the OFF header declares " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+             " faces, more than the file's " + std::to_string(text.size()) + " bytes can hold");
+  PolygonSoup soup;
+  soup.vertices.reserve(static_cast<std::size_t>(nv));
+  for (long long i = 0; i < nv; ++i) {
+    double c[3];
+    for (int k = 0; k < 3; ++k) {
+      std::string tok;
+      if (!tk.next(tok))
+        fail(path, "vertex " + std::to_string(i) +
+                       ": the file ends before its three coordinates (the header declares " + std::to_string(nv) +
+                       " vertices)");
+      const NumberStatus st = parseCoordinate(tok, c[k]);
+      if (st != NumberStatus::Ok)
+        failLine("vertex " + std::to_string(i) + ": " + realProblem(std::string("coordinate ") + kAxis[k], tok, st));
+    }
+    soup.vertices.emplace_back(c[0], c[1], c[2]);
+  }
+  // Faces: one per line, "n i1 ... in" and optional colour values after that.
+  soup.faces.reserve(static_cast<std::size_t>(nf));
+  for (long long f = 0; f < nf; ++f) {
+    const std::string fn = "face " + std::to_string(f) + ": ";
+    tk.skipLine();
+    std::string tok;
+    if (!tk.next(tok)) fail(path, fn + "the file ends early (the header declares " + std::to_string(nf) + " faces)");
+    long long n = 0;
+    NumberStatus st = parseInteger(tok, n);
+    if (st != NumberStatus::Ok) failLine(fn + integerProblem("corner count", tok, st));
+    if (n < 0) failLine(fn + "corner count " + quoted(tok) + " is negative");
     std::vector<int> face;
-    for (long k = 0; k < n; ++k) {
-      long v;
-      if (!(ls >> v)) fail(path, "face " + std::to_string(f) + ": cannot read " + std::to_string(n) + " indices");
+    for (long long k = 0; k < n; ++k) {  // bounded by the tokens on the line
+      if (!tk.moreOnLine() || !tk.next(tok))
+        failLine(fn + "the line ends after " + std::to_string(k) + " of its " + std::to_string(n) + " vertex indices");
+      long long v = 0;
+      st = parseInteger(tok, v);
+      if (st != NumberStatus::Ok) failLine(fn + integerProblem("vertex index", tok, st));
+      if (v < 0 || v >= nv) failLine(fn + "vertex index " + quoted(tok) + " is out of range: " + vertexRange(nv));
       face.push_back(static_cast<int>(v));
     }
     soup.faces.push_back(std::move(face));
@@ -125,7 +349,7 @@ PolygonSoup parseOff(const std::string& text, const std::string& path) {
 // ---------------------------------------------------------------- PLY
 enum class PlyType { I8, U8, I16, U16, I32, U32, F32, F64 };
 
-PlyType plyType(const std::string& t, const std::string& path) {
+PlyType plyType(const std::string& t, const std::string& path, int line) {
   if (t == "char" || t == "int8") return PlyType::I8;
   if (t == "uchar" || t == "uint8") return PlyType::U8;
   if (t == "short" || t == "int16") return PlyType::I16;
@@ -134,7 +358,29 @@ PlyType plyType(const std::string& t, const std::string& path) {
   if (t == "uint" || t == "uint32") return PlyType::U32;
   if (t == "float" || t == "float32") return PlyType::F32;
   if (t == "double" || t == "float64") return PlyType::F64;
-  fail(path, "unknown PLY property type '" + t + "'");
+  fail(path, "line " + std::to_string(line) + ": unknown PLY property type " + quoted(t));
+}
+
+const char* plyTypeName(PlyType t) {
+  switch (t) {
+    case PlyType::I8:
+      return "char";
+    case PlyType::U8:
+      return "uchar";
+    case PlyType::I16:
+      return "short";
+    case PlyType::U16:
+      return "ushort";
+    case PlyType::I32:
+      return "int";
+    case PlyType::U32:
+      return "uint";
+    case PlyType::F32:
+      return "float";
+    case PlyType::F64:
+      return "double";
+  }
+  return "?";
 }
 
 int plySize(PlyType t) {
@@ -147,6 +393,32 @@ int plySize(PlyType t) {
   return 0;
 }
 
+bool plyIsInteger(PlyType t) { return t != PlyType::F32 && t != PlyType::F64; }
+
+// Range of an integer PLY type.
+void plyIntegerRange(PlyType t, long long& lo, long long& hi) {
+  switch (t) {
+    case PlyType::I8:
+      lo = -128, hi = 127;
+      return;
+    case PlyType::U8:
+      lo = 0, hi = 255;
+      return;
+    case PlyType::I16:
+      lo = -32768, hi = 32767;
+      return;
+    case PlyType::U16:
+      lo = 0, hi = 65535;
+      return;
+    case PlyType::I32:
+      lo = -2147483648LL, hi = 2147483647LL;
+      return;
+    default:
+      lo = 0, hi = 4294967295LL;
+      return;
+  }
+}
+
 struct PlyProperty {
   std::string name;
   bool isList = false;
@@ -154,51 +426,130 @@ struct PlyProperty {
 };
 struct PlyElement {
   std::string name;
-  long count = 0;
+  long long count = 0;
+  int line = 0;  // header line, for messages
   std::vector<PlyProperty> props;
 };
 
+// Reads the values of the data section, ASCII (token by token, strictly, with
+// line numbers) or binary. Errors name the line (ASCII) or the element entry
+// (binary) and the offending value.
 class PlyValueReader {
  public:
-  PlyValueReader(const std::string& data, std::size_t pos, int format, const std::string& path)
-      : data_(data), pos_(pos), format_(format), path_(path) {
-    if (format_ == 0) text_.str(data.substr(pos));
+  PlyValueReader(const std::string& data, std::size_t pos, int firstLine, int format, const std::string& path)
+      : data_(data), pos_(pos), format_(format), path_(path), tokens_(data, pos, firstLine, false) {}
+
+  // "line 12: face 3" (ASCII) or "face 3 (binary data)": where the last value was read.
+  std::string where(const PlyElement& e, long long i) const {
+    const std::string entry = e.name + " " + std::to_string(i);
+    if (format_ == 0) return "line " + std::to_string(tokens_.line()) + ": " + entry;
+    return entry + " (binary data)";
   }
-  double read(PlyType t) {
-    if (format_ == 0) {
-      double v;
-      if (!(text_ >> v)) fail(path_, "PLY: unexpected end of data or bad number");
-      return v;
-    }
+  [[noreturn]] void failAt(const PlyElement& e, long long i, const std::string& what) const {
+    fail(path_, where(e, i) + ": " + what);
+  }
+  // The last value as written: the ASCII token, or the decoded binary number.
+  const std::string& text() const { return text_; }
+
+  double read(PlyType t, const PlyElement& e, long long i, const std::string& prop) {
+    if (format_ == 0) return readAscii(t, e, i, prop);
     const int n = plySize(t);
-    if (pos_ + n > data_.size()) fail(path_, "PLY: binary data ends early");
+    if (pos_ + n > data_.size())
+      fail(path_, e.name + " " + std::to_string(i) + ": the binary data ends early (property '" + prop + "')");
     unsigned char b[8];
     std::memcpy(b, data_.data() + pos_, n);
     pos_ += n;
     if (format_ == 2) std::reverse(b, b + n);  // big endian -> little (x86 host)
+    double v = 0;
     switch (t) {
-      case PlyType::I8: { int8_t v; std::memcpy(&v, b, 1); return v; }
-      case PlyType::U8: { uint8_t v; std::memcpy(&v, b, 1); return v; }
-      case PlyType::I16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-      case PlyType::U16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-      case PlyType::I32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::U32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::F32: { float v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::F64: { double v; std::memcpy(&v, b, 8); return v; }
+      case PlyType::I8: {
+        int8_t x;
+        std::memcpy(&x, b, 1);
+        v = x;
+        break;
+      }
+      case PlyType::U8: {
+        uint8_t x;
+        std::memcpy(&x, b, 1);
+        v = x;
+        break;
+      }
+      case PlyType::I16: {
+        int16_t x;
+        std::memcpy(&x, b, 2);
+        v = x;
+        break;
+      }
+      case PlyType::U16: {
+        uint16_t x;
+        std::memcpy(&x, b, 2);
+        v = x;
+        break;
+      }
+      case PlyType::I32: {
+        int32_t x;
+        std::memcpy(&x, b, 4);
+        v = x;
+        break;
+      }
+      case PlyType::U32: {
+        uint32_t x;
+        std::memcpy(&x, b, 4);
+        v = x;
+        break;
+      }
+      case PlyType::F32: {
+        float x;
+        std::memcpy(&x, b, 4);
+        v = x;
+        break;
+      }
+      case PlyType::F64: {
+        double x;
+        std::memcpy(&x, b, 8);
+        v = x;
+        break;
+      }
     }
-    return 0;
+    text_ = formatNumber(v);
+    return v;
   }
 
  private:
+  double readAscii(PlyType t, const PlyElement& e, long long i, const std::string& prop) {
+    if (!tokens_.next(text_))
+      fail(path_, e.name + " " + std::to_string(i) + ": the data ends early (property '" + prop + "')");
+    const std::string what = "property '" + prop + "' value";
+    if (plyIsInteger(t)) {
+      long long v = 0;
+      const NumberStatus st = parseInteger(text_, v);
+      if (st != NumberStatus::Ok) failAt(e, i, integerProblem(what, text_, st) + " (PLY type " + plyTypeName(t) + ")");
+      long long lo = 0, hi = 0;
+      plyIntegerRange(t, lo, hi);
+      if (v < lo || v > hi)
+        failAt(e, i,
+               what + " " + quoted(text_) + " does not fit PLY type " + plyTypeName(t) + " (" + std::to_string(lo) +
+                   " to " + std::to_string(hi) + ")");
+      return static_cast<double>(v);
+    }
+    double v = 0;
+    const NumberStatus st = parseReal(text_, v);
+    if (st == NumberStatus::NonFinite) return std::strtod(text_.c_str(), nullptr);  // inf/nan: the caller decides
+    if (st != NumberStatus::Ok) failAt(e, i, realProblem(what, text_, st));
+    return v;
+  }
+
   const std::string& data_;
   std::size_t pos_;
   int format_;  // 0 ascii, 1 little endian, 2 big endian
   std::string path_;
-  std::istringstream text_;
+  Tokens tokens_;
+  std::string text_;
 };
 
 PolygonSoup parsePly(const std::string& data, const std::string& path) {
   std::size_t pos = 0;
+  int lineNo = 0;
   auto nextLine = [&](std::string& line) {
     if (pos >= data.size()) return false;
     std::size_t e = data.find('\n', pos);
@@ -206,14 +557,16 @@ PolygonSoup parsePly(const std::string& data, const std::string& path) {
     line = data.substr(pos, e - pos);
     if (!line.empty() && line.back() == '\r') line.pop_back();
     pos = std::min(e + 1, data.size());
+    ++lineNo;
     return true;
   };
+  auto failLine = [&](const std::string& what) { fail(path, "line " + std::to_string(lineNo) + ": " + what); };
   std::string line;
   if (!nextLine(line) || line != "ply") fail(path, "not a PLY file (missing 'ply' magic line)");
   int format = -1;
   std::vector<PlyElement> elements;
   bool ended = false;
-  while (nextLine(line)) {
+  while (nextLine(line)) {  // bounded by the file
     std::istringstream ls(line);
     std::string kw;
     ls >> kw;
@@ -223,13 +576,22 @@ PolygonSoup parsePly(const std::string& data, const std::string& path) {
       if (f == "ascii") format = 0;
       else if (f == "binary_little_endian") format = 1;
       else if (f == "binary_big_endian") format = 2;
-      else fail(path, "unknown PLY format '" + f + "'");
+      else
+        failLine("unknown PLY format " + quoted(f));
     } else if (kw == "element") {
       PlyElement e;
-      if (!(ls >> e.name >> e.count) || e.count < 0) fail(path, "bad PLY element line '" + line + "'");
+      e.line = lineNo;
+      std::string countTok;
+      if (!(ls >> e.name >> countTok)) failLine("PLY element line needs a name and a count: " + quoted(line));
+      const NumberStatus st = parseInteger(countTok, e.count);
+      if (st != NumberStatus::Ok) failLine(integerProblem("PLY element '" + e.name + "' count", countTok, st));
+      if (e.count < 0) failLine("PLY element '" + e.name + "' count " + quoted(countTok) + " is negative");
+      if (e.count > kMaxCount)
+        failLine("PLY element '" + e.name + "' declares " + countTok + " entries; at most " +
+                 std::to_string(kMaxCount) + " are supported");
       elements.push_back(e);
     } else if (kw == "property") {
-      if (elements.empty()) fail(path, "PLY property before any element");
+      if (elements.empty()) failLine("PLY property before any element");
       PlyProperty p;
       std::string t;
       ls >> t;
@@ -237,12 +599,14 @@ PolygonSoup parsePly(const std::string& data, const std::string& path) {
         std::string ct, it;
         ls >> ct >> it >> p.name;
         p.isList = true;
-        p.countType = plyType(ct, path);
-        p.type = plyType(it, path);
+        p.countType = plyType(ct, path, lineNo);
+        p.type = plyType(it, path, lineNo);
+        if (!plyIsInteger(p.countType)) failLine("PLY list count type " + quoted(ct) + " is not an integer type");
       } else {
-        p.type = plyType(t, path);
+        p.type = plyType(t, path, lineNo);
         ls >> p.name;
       }
+      if (p.name.empty()) failLine("PLY property without a name: " + quoted(line));
       elements.back().props.push_back(p);
     } else if (kw == "end_header") {
       ended = true;
@@ -251,38 +615,72 @@ PolygonSoup parsePly(const std::string& data, const std::string& path) {
   }
   if (!ended) fail(path, "PLY header has no 'end_header'");
   if (format < 0) fail(path, "PLY header has no 'format' line");
-  PlyValueReader rd(data, pos, format, path);
+
+  // The declared counts must fit in the data: an entry takes at least 2 bytes
+  // per value in ASCII ("0 ") and the size of its scalars and list counts in
+  // binary. This rejects absurd counts before any work is done.
+  const double available = static_cast<double>(data.size() - pos) + (format == 0 ? 1 : 0);
+  double needed = 0;
+  long long declaredVertices = 0;
+  for (const PlyElement& e : elements) {
+    double perEntry = 0;
+    for (const PlyProperty& p : e.props) perEntry += format == 0 ? 2 : plySize(p.isList ? p.countType : p.type);
+    needed += perEntry * static_cast<double>(e.count);
+    if (needed > available)
+      fail(path, "line " + std::to_string(e.line) + ": PLY element '" + e.name + "' declares " +
+                     std::to_string(e.count) + " entries, more than the remaining " +
+                     std::to_string(data.size() - pos) + " bytes of data can hold");
+    if (e.name == "vertex") declaredVertices += e.count;
+  }
+
+  PlyValueReader rd(data, pos, lineNo + 1, format, path);
   PolygonSoup soup;
   for (const PlyElement& e : elements) {
+    if (e.props.empty()) continue;  // no data to read, whatever the count
     const bool isVertex = e.name == "vertex";
     const bool isFace = e.name == "face";
-    int ix = -1, iy = -1, iz = -1, iface = -1;
+    int axis[3] = {-1, -1, -1}, iface = -1;
     for (int k = 0; k < static_cast<int>(e.props.size()); ++k) {
-      const auto& n = e.props[k].name;
-      if (n == "x") ix = k;
-      if (n == "y") iy = k;
-      if (n == "z") iz = k;
-      if ((n == "vertex_indices" || n == "vertex_index") && e.props[k].isList) iface = k;
+      const PlyProperty& pr = e.props[k];
+      for (int a = 0; a < 3; ++a)
+        if (pr.name == kAxis[a] && !pr.isList) axis[a] = k;
+      if ((pr.name == "vertex_indices" || pr.name == "vertex_index") && pr.isList) iface = k;
     }
-    if (isVertex && (ix < 0 || iy < 0 || iz < 0)) fail(path, "PLY vertex element lacks x, y or z");
-    if (isFace && iface < 0) fail(path, "PLY face element lacks a vertex_indices list");
-    for (long i = 0; i < e.count; ++i) {
+    if (isVertex && (axis[0] < 0 || axis[1] < 0 || axis[2] < 0))
+      fail(path, "line " + std::to_string(e.line) + ": PLY vertex element lacks a scalar x, y or z property");
+    if (isFace && iface < 0)
+      fail(path, "line " + std::to_string(e.line) + ": PLY face element lacks a vertex_indices list");
+    for (long long i = 0; i < e.count; ++i) {  // count <= kMaxCount and fits the data
       Vec3 p = Vec3::Zero();
       std::vector<int> face;
       for (int k = 0; k < static_cast<int>(e.props.size()); ++k) {
         const PlyProperty& pr = e.props[k];
         if (pr.isList) {
-          const double n = rd.read(pr.countType);
-          if (n < 0 || n > 1e6) fail(path, "PLY element '" + e.name + "' " + std::to_string(i) + ": bad list size");
-          for (int j = 0; j < static_cast<int>(n); ++j) {
-            double v = rd.read(pr.type);
-            if (isFace && k == iface) face.push_back(static_cast<int>(v));
+          const double n = rd.read(pr.countType, e, i, pr.name);
+          if (!(n >= 0 && n <= 1e6))
+            rd.failAt(e, i, "list '" + pr.name + "' size " + quoted(rd.text()) + " is out of range (0 to 1000000)");
+          const bool indices = isFace && k == iface;
+          for (int j = 0; j < static_cast<int>(n); ++j) {  // n <= 1e6; each read fails at the end of the data
+            const double v = rd.read(pr.type, e, i, pr.name);
+            if (!indices) continue;
+            if (!(v >= 0 && v < static_cast<double>(declaredVertices)))
+              rd.failAt(e, i,
+                        "vertex index " + quoted(rd.text()) + " is out of range: " + vertexRange(declaredVertices));
+            if (v != std::floor(v)) rd.failAt(e, i, "vertex index " + quoted(rd.text()) + " is not an integer");
+            face.push_back(static_cast<int>(v));
           }
         } else {
-          double v = rd.read(pr.type);
-          if (k == ix) p.x() = v;
-          if (k == iy) p.y() = v;
-          if (k == iz) p.z() = v;
+          const double v = rd.read(pr.type, e, i, pr.name);
+          for (int a = 0; a < 3; ++a)
+            if (isVertex && k == axis[a]) {
+              if (!std::isfinite(v))
+                rd.failAt(e, i,
+                          std::string("vertex coordinate ") + kAxis[a] + " " + quoted(rd.text()) + " is not finite");
+              if (!(std::abs(v) <= kMaxSurfaceCoordinate))
+                rd.failAt(e, i,
+                          realProblem(std::string("vertex coordinate ") + kAxis[a], rd.text(), NumberStatus::TooLarge));
+              p[a] = v;
+            }
         }
       }
       if (isVertex) soup.vertices.push_back(p);
@@ -314,8 +712,11 @@ TriSurface validateSurface(const PolygonSoup& soup, const std::string& path, std
   s.sourcePath = path;
   if (soup.faces.empty()) fail(path, "the surface is empty (no faces)");
   const int nv = static_cast<int>(soup.vertices.size());
-  for (int i = 0; i < nv; ++i)
+  for (int i = 0; i < nv; ++i) {
     if (!soup.vertices[i].allFinite()) fail(path, "vertex " + std::to_string(i) + " has a non-finite coordinate");
+    if (!(soup.vertices[i].cwiseAbs().maxCoeff() <= kMaxSurfaceCoordinate))
+      fail(path, "vertex " + std::to_string(i) + " has a coordinate beyond +-" + formatShort(kMaxSurfaceCoordinate));
+  }
   s.vertices = soup.vertices;
   double diag = 0;
   {

@@ -32,10 +32,21 @@ struct SurfacePoint {
   Vec3 bary = Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3);
 };
 
+// Vertex coordinates of an input file must lie within +-kMaxSurfaceCoordinate
+// (any unit: --scale applies afterwards), so that lengths, areas and their
+// squares stay far from overflow.
+constexpr double kMaxSurfaceCoordinate = 1e15;
+
 // Reads an .obj, .off or .ply file (ASCII; PLY also binary) without checking
-// it beyond syntax. Throws InputError (io/scene_reader.hh) naming the file and
-// the offending line or element. Faces with other than three corners are kept
-// as they are read, so that validateSurface can reject them clearly.
+// it beyond syntax. Every number is parsed strictly (the whole token; reals
+// finite and within kMaxSurfaceCoordinate, integers without overflow) and
+// every face index is checked against the vertex count (OBJ: 1-based, negative
+// counts back from the last vertex defined so far; OFF and PLY: 0-based);
+// declared OFF/PLY counts are checked against the file size before reading.
+// Throws InputError (io/scene_reader.hh) naming the file, the line (binary PLY:
+// the element entry) and the offending text. Faces with other than three
+// corners are kept as they are read, so that validateSurface can reject them
+// clearly.
 struct PolygonSoup {
   std::vector<Vec3> vertices;
   std::vector<std::vector<int>> faces;

@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <functional>
+#include <limits>
 #include <set>
 
 namespace rodmesh::meshing {
@@ -195,6 +197,102 @@ TEST(Mesher, RejectsInconsistentOptions) {
   o.method = MeshMethod::Dual;
   o.dualFaces = 100000;
   EXPECT_THROW(meshSurface(s, {}, {}, o), InputError);
+}
+
+TEST(Mesher, DensityAndVertexListFilesNameLineAndValue) {
+  const std::string p = testing::tempPath(".txt");
+  auto expectRejected = [&](const std::string& text, int nsv, bool density, const std::string& fragment) {
+    testing::writeText(p, text);
+    try {
+      if (density)
+        readDensityFile(p, nsv);
+      else
+        readVertexListFile(p, nsv);
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(m.find(p + ": "), 0u) << m;
+      EXPECT_NE(m.find(fragment), std::string::npos) << m;
+    }
+  };
+  expectRejected("1 1\n1e999\n", 3, true, "line 2: value 2 ('1e999')");
+  expectRejected("1 nan 1\n", 3, true, "line 1: value 1 ('nan')");
+  expectRejected("# ids\n0, 1\n2.5\n", 4, false, "line 3: entry '2.5'");
+  expectRejected("0 99999999999999999999\n", 4, false, "line 1: entry '99999999999999999999'");
+  expectRejected("0 4294967299\n", 4, false, "'4294967299' is not a surface vertex index in [0, 4)");
+  expectRejected("-1\n", 4, false, "'-1'");
+  testing::writeText(p, "0, 3 # corners\n");
+  EXPECT_EQ(readVertexListFile(p, 4), (std::vector<int>{0, 3}));
+}
+
+// Every option out of its range is an InputError naming the flag and the value
+// (NaN and infinities included), before any work is done.
+TEST(Mesher, OptionsOutOfRangeNameTheFlagAndTheValue) {
+  struct Case {
+    std::function<void(MeshOptions&)> set;
+    std::string flag, value;
+  };
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Case> cases = {
+      {[](MeshOptions& o) { o.cvt.cells = 2147483647; }, "--cells", "2147483647"},
+      {[](MeshOptions& o) { o.cvt.cells = 1; }, "--cells", "1"},
+      {[](MeshOptions& o) { o.cvt.maxIterations = 100000; }, "--iterations", "100000"},
+      {[](MeshOptions& o) { o.cvt.restarts = 0; }, "--restarts", "0"},
+      {[nan](MeshOptions& o) { o.cvt.tolerance = nan; }, "--tolerance", "nan"},
+      {[](MeshOptions& o) { o.cvt.mergeFraction = -0.5; }, "--merge", "-0.5"},
+      {[](MeshOptions& o) { o.cvt.refinement = 2147483648.0; }, "--refinement", "2147483648"},
+      {[inf](MeshOptions& o) { o.cvt.refinement = inf; }, "--refinement", "inf"},
+      {[](MeshOptions& o) {
+         o.method = MeshMethod::Dual;
+         o.dualFaces = 2147483647;
+       },
+       "--faces", "2147483647"},
+      {[inf](MeshOptions& o) { o.edgeLength = inf; }, "--edge-length", "inf"},
+      {[](MeshOptions& o) { o.edgeLength = -1; }, "--edge-length", "-1"},
+      {[inf](MeshOptions& o) { o.material.youngModulus = inf; }, "--young-modulus", "inf"},
+      {[nan](MeshOptions& o) { o.material.poissonRatio = nan; }, "--poisson-ratio", "nan"},
+      {[](MeshOptions& o) { o.material.density = 0; }, "--material-density", "0"},
+      {[inf](MeshOptions& o) { o.radius = Vec2(inf, 0.002); }, "--radius", "inf"},
+      {[inf](MeshOptions& o) { o.radiusMax = inf; }, "--radius-bounds", "inf"},
+      {[](MeshOptions& o) { o.controlPointsPerRod = 100000; }, "--control-points", "100000"},
+      {[nan](MeshOptions& o) { o.gravity = Vec3(0, 0, nan); }, "--gravity", "nan"},
+      {[inf](MeshOptions& o) {
+         o.fixBoxes.push_back({Vec3::Zero(), Vec3(1, 1, inf)});
+       },
+       "--fix-box", ""},
+  };
+  for (const Case& c : cases) {
+    MeshOptions o;
+    c.set(o);
+    try {
+      validateOptions(o);
+      ADD_FAILURE() << c.flag << " " << c.value << " accepted";
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(m.find(c.flag), 0u) << m;
+      EXPECT_NE(m.find(c.value), std::string::npos) << m;
+    }
+  }
+  EXPECT_NO_THROW(validateOptions(MeshOptions()));
+}
+
+TEST(Mesher, EdgeLengthAndSurfaceSizeAreBounded) {
+  MeshOptions o;
+  o.cvt.cells = 20;
+  o.edgeLength = 1e-9;  // about 1e8 rod vertices on this sphere
+  try {
+    meshSurface(testing::icosphere(0.05, 2), {}, {}, o);
+    ADD_FAILURE() << "--edge-length 1e-9 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--edge-length 1e-09 m gives about"), std::string::npos) << e.what();
+  }
+  o.edgeLength = 0;
+  try {
+    meshSurface(testing::icosphere(1e-8, 2), {}, {}, o);
+    ADD_FAILURE() << "a surface of 2e-8 m accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the surface spans"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -11,8 +11,10 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sys/stat.h>
 
 namespace rodmesh::meshing {
@@ -117,6 +119,75 @@ TEST(Solid, ChecksCatchDefects) {
   EXPECT_FALSE(c.ok());
 }
 
+TEST(Solid, WorkIsBoundedBeforeAnythingIsAllocated) {
+  const auto edges = straightRod(Vec3(0, 0, 0), Vec3(0.05, 0, 0), 10, Vec2(0.002, 0.002), Vec3(0, 0, 1), 0);
+  SolidOptions o;
+  o.resolution = 1e-6;     // ~3e9 triangles
+  o.maxTriangles = 20000;  // keeps the suggested step quick to run here
+  std::string suggestion;
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    sweepRods(edges, o);
+    ADD_FAILURE() << "--resolution 1e-6 accepted";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.find("--resolution 1e-06 m would need about"), 0u) << m;
+    const std::string use = "use --resolution ";
+    ASSERT_NE(m.find(use), std::string::npos) << m;
+    suggestion = m.substr(m.find(use) + use.size());
+    suggestion = suggestion.substr(0, suggestion.find(' '));
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+  // The suggested step is within the limits.
+  o.resolution = std::stod(suggestion);
+  SolidReport r;
+  const IndexedMesh m = sweepRods(edges, o, &r);
+  EXPECT_FALSE(r.coarsened);
+  EXPECT_LE(r.work.triangles, o.maxTriangles);
+  EXPECT_GT(static_cast<double>(m.faces.size()), 0.5 * r.work.triangles);
+  EXPECT_LT(static_cast<double>(m.faces.size()), 1.5 * r.work.triangles);
+  // The default step is coarsened to fit instead.
+  SolidOptions d;
+  d.maxTriangles = 3000;
+  const IndexedMesh c = sweepRods(edges, d, &r);
+  EXPECT_TRUE(r.coarsened);
+  EXPECT_LE(r.work.triangles, 3000);
+  EXPECT_LT(static_cast<double>(c.faces.size()), 1.5 * 3000);
+  EXPECT_TRUE(checkSolid(c).ok()) << checkSolid(c).problems();
+}
+
+TEST(Solid, OptionsAndEdgesOutOfRangeAreInputErrors) {
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  for (double v : {nan, inf, -1.0, 2.0}) {
+    SolidOptions o;
+    o.resolution = v;
+    EXPECT_THROW(validateOptions(o), InputError) << v;
+    o.resolution = 0;
+    o.fillet = v == -1.0 ? 5.0 : v;  // negative fillet = default, so test 5 m instead
+    EXPECT_THROW(validateOptions(o), InputError) << v;
+  }
+  auto edges = straightRod(Vec3(0, 0, 0), Vec3(0.05, 0, 0), 4, Vec2(0.002, 0.002), Vec3(0, 0, 1), 0);
+  edges[2].p1.x() = nan;
+  EXPECT_THROW(sweepRods(edges, SolidOptions()), InputError);
+  edges = straightRod(Vec3(0, 0, 0), Vec3(0.05, 0, 0), 4, Vec2(0.002, 0.002), Vec3(0, 0, 1), 0);
+  edges[1].r0[0] = inf;
+  EXPECT_THROW(sweepRods(edges, SolidOptions()), InputError);
+  // Far-apart rods: the bounding grid, not the triangles, is what is too large.
+  auto far = straightRod(Vec3(0, 0, 0), Vec3(0.05, 0, 0), 4, Vec2(0.002, 0.002), Vec3(0, 0, 1), 0);
+  const auto other =
+      straightRod(Vec3(1e4, 1e4, 1e4), Vec3(1e4 + 0.05, 1e4, 1e4), 4, Vec2(0.002, 0.002), Vec3(0, 0, 1), 1);
+  far.insert(far.end(), other.begin(), other.end());
+  SolidOptions o;
+  o.resolution = 0.001;
+  try {
+    sweepRods(far, o);
+    ADD_FAILURE() << "a 17 km grid accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("grid blocks"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("too large to export"), std::string::npos) << e.what();
+  }
+}
+
 // Meshes a small sphere, stores it in an archive (rest + one shifted pose)
 // and exports it.
 class ExportTest : public ::testing::Test {
@@ -194,6 +265,25 @@ TEST_F(ExportTest, BadRequestsWriteNothing) {
   EXPECT_THROW(exportSolid(archive_, testing::tempPath(".xyz"), o), InputError);
   EXPECT_THROW(exportSolid("/nonexistent/archive.h5", stl, o), std::exception);
   EXPECT_FALSE(fileExists(stl));
+}
+
+TEST_F(ExportTest, NonFiniteArchiveDataIsAnInputError) {
+  Archive a = readArchive(archive_);
+  a.poses[0].positions(3, 1) = std::numeric_limits<double>::quiet_NaN();
+  const std::string bad = testing::tempPath(".h5");
+  writeArchive(a, bad);
+  ExportOptions o;
+  o.pose = "squashed";
+  const std::string stl = testing::tempPath(".stl");
+  try {
+    exportSolid(bad, stl, o);
+    ADD_FAILURE() << "NaN position accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/poses/squashed/positions row 3 is not finite"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fileExists(stl));
+  std::remove(bad.c_str());
 }
 
 }  // namespace

@@ -81,7 +81,7 @@ TEST(SurfaceRead, RejectsBadSurfacesWithClearMessages) {
   writeText(p, "v 0 0 0\nv 1 0 0\nf 1 2 2\n");
   expectRejected(p, "degenerate");
   writeText(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
-  expectRejected(p, "refers to vertex 6");
+  expectRejected(p, "line 4: face index '7' is out of range");
   // Three triangles on one edge (a "book").
   writeText(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
   expectRejected(p, "non-manifold edge");
