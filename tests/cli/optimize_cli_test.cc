@@ -1,0 +1,161 @@
+// End-to-end tests of `rodmesh optimize --method reduced` (contract §2, §4):
+// recovery of a hidden design, the archive read back and re-simulated from
+// scratch with `rodmesh simulate`, limits, and bad input.
+//
+// tests/cli/optimize_small.json: a 2 x 2-cell hexagonal sheet (58 vertices,
+// 15 rods) clamped on its left side, with a gravity pose and a pulled pose;
+// targets are the equilibria of a hidden design whose radii grow linearly
+// across the sheet (r_t 1.1 to 2.7 mm, r_n 1.1 to 2.3 mm), representable by the
+// control points; the scene's own radii are the uniform default (2 mm).
+#include "io/archive.hh"
+
+#include "tests/cli/cli_util.hh"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace rodmesh {
+namespace {
+
+const std::string kExe = RODMESH_EXE;
+const std::string kSourceDir = RODMESH_SOURCE_DIR;
+
+class OptimizeCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char t[] = "/tmp/rodmesh_opt_test_XXXXXX";
+    ASSERT_NE(mkdtemp(t), nullptr);
+    dir_ = t;
+    clitest::writeText(path("scene.json"), clitest::readText(kSourceDir + "/tests/cli/optimize_small.json"));
+  }
+  void TearDown() override { std::system(("rm -rf " + clitest::shellQuote(dir_)).c_str()); }
+  std::string path(const std::string& n) const { return dir_ + "/" + n; }
+  int run(const std::string& args, std::string* err = nullptr) {
+    const std::string cmd = "cd " + clitest::shellQuote(dir_) + " && " + clitest::shellQuote(kExe) + " " + args +
+                            " >/dev/null 2>" + clitest::shellQuote(dir_ + "/.err");
+    const int raw = std::system(cmd.c_str());
+    if (err) *err = clitest::readText(dir_ + "/.err");
+    std::remove((dir_ + "/.err").c_str());
+    return (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
+  }
+  std::vector<std::string> files() const { return clitest::listFiles(dir_); }
+  std::string dir_;
+};
+
+double rms(const std::vector<ArchivePose>& poses, bool initial) {
+  double s = 0.0;
+  long n = 0;
+  for (const ArchivePose& p : poses) {
+    const MatX3& q = initial ? p.initialPositions : p.positions;
+    s += (q - p.target).squaredNorm();
+    n += q.rows();
+  }
+  return std::sqrt(s / n);
+}
+
+TEST_F(OptimizeCli, ReducedRecoversAHiddenDesignAndItsPositionsAreEquilibria) {
+  std::string err;
+  const int status = run("optimize scene.json -o out.h5 --method reduced --max-iter 300", &err);
+  ASSERT_TRUE(status == 0 || status == 1) << err;
+  const Archive a = readArchive(path("out.h5"));
+  EXPECT_EQ(a.command, "optimize");
+  ASSERT_TRUE(a.optimize.has_value());
+  EXPECT_EQ(a.optimize->method, "reduced");
+  ASSERT_EQ(a.poses.size(), 2u);
+  const double initial = rms(a.poses, true), final = rms(a.poses, false);
+  EXPECT_GT(initial, 5e-4);
+  EXPECT_LT(final, 0.05 * initial) << "initial " << initial << " final " << final << "\n" << err;
+  // Radii within bounds at every vertex; history starts at the initial design
+  // and never increases the objective.
+  EXPECT_GE(a.radii.minCoeff(), 0.0008 - 1e-15);
+  EXPECT_LE(a.radii.maxCoeff(), 0.004 + 1e-15);
+  ASSERT_TRUE(a.history.has_value());
+  ASSERT_GE(a.history->objective.size(), 2u);
+  for (std::size_t i = 1; i < a.history->objective.size(); ++i)
+    EXPECT_LE(a.history->objective[i], a.history->objective[i - 1] * (1 + 1e-12));
+  ASSERT_TRUE(a.controlPoints.has_value());
+  EXPECT_EQ(a.controlPoints->radii.rows(), static_cast<long>(a.controlPoints->rod.size()));
+
+  // Acceptance-style check: a scene carrying the archived rest positions and
+  // radii, simulated from scratch, reproduces the archived positions.
+  nlohmann::json scene = nlohmann::json::parse(clitest::readText(path("scene.json")));
+  scene.erase("design");
+  scene.erase("radius");
+  for (std::size_t v = 0; v < scene["vertices"].size(); ++v) {
+    scene["vertices"][v] = {a.restPositions(v, 0), a.restPositions(v, 1), a.restPositions(v, 2)};
+    scene["radii"][v] = {a.radii(v, 0), a.radii(v, 1)};
+  }
+  clitest::writeText(path("check.json"), scene.dump());
+  ASSERT_EQ(run("simulate check.json -o check.h5", &err), 0) << err;
+  const Archive s = readArchive(path("check.h5"));
+  for (std::size_t p = 0; p < a.poses.size(); ++p) {
+    EXPECT_LT((s.poses[p].positions - a.poses[p].positions).cwiseAbs().maxCoeff(), 1e-8) << a.poses[p].name;
+    ASSERT_TRUE(a.poses[p].equilibriumGap.has_value());
+    EXPECT_LT(*a.poses[p].equilibriumGap, 1e-6);
+  }
+}
+
+TEST_F(OptimizeCli, TimeLimitStopsWithAValidArchiveOfTheBestDesign) {
+  std::string err;
+  const int status = run("optimize scene.json -o out.h5 --method reduced --max-iter 100000 --time-limit 0.3", &err);
+  EXPECT_EQ(status, 1) << err;
+  const Archive a = readArchive(path("out.h5"));
+  EXPECT_EQ(a.status, "not_converged");
+  ASSERT_TRUE(a.optimize.has_value());
+  EXPECT_LT(a.optimize->timeSeconds, 5.0);
+  EXPECT_LE(rms(a.poses, false), rms(a.poses, true));
+  for (const ArchivePose& p : a.poses) EXPECT_LT(p.residualNorm, 1e-6) << p.name;
+}
+
+TEST_F(OptimizeCli, BadUsageIsExit2AndWritesNothing) {
+  const std::vector<std::string> before = files();
+  for (const std::string args :
+       {"--method newton", "--method reduced --time-limit -1", "--method reduced --max-iter abc",
+        "--method reduced --ipopt tol=1e-3", "--method reduced --threads 0", "--method reduced --tol 2",
+        "--method reduced --schedule fast"}) {
+    std::string err;
+    EXPECT_EQ(run("optimize scene.json -o out.h5 " + args, &err), 2) << args << "\n" << err;
+    EXPECT_FALSE(err.empty()) << args;
+    EXPECT_EQ(files(), before) << args;
+  }
+}
+
+TEST_F(OptimizeCli, ScenesThatCannotBeOptimizedAreExit2NamingTheKey) {
+  nlohmann::json base = nlohmann::json::parse(clitest::readText(path("scene.json")));
+  struct Bad {
+    std::function<void(nlohmann::json&)> edit;
+    std::string key;
+  };
+  const std::vector<Bad> bad = {
+      {[](nlohmann::json& j) { j.erase("design"); }, "design"},
+      {[](nlohmann::json& j) { j["design"]["parameters"] = nlohmann::json::array(); }, "design.parameters"},
+      {[](nlohmann::json& j) { j["poses"][1].erase("target"); }, "poses[1].target"},
+      {[](nlohmann::json& j) { j["radius"] = {0.0002, 0.002}; }, "radius"},
+      {[](nlohmann::json& j) { j["design"]["control_points_per_rod"] = 1; }, "design.control_points_per_rod"},
+      {[](nlohmann::json& j) { j["poses"][0]["weight"] = -1; }, "poses[0].weight"},
+      {[](nlohmann::json& j) {
+         j["poses"][0]["weight"] = 0;
+         j["poses"][1]["weight"] = 0;
+       },
+       "weight"},
+  };
+  for (const Bad& b : bad) {
+    nlohmann::json j = base;
+    b.edit(j);
+    clitest::writeText(path("bad.json"), j.dump());
+    const std::vector<std::string> before = files();
+    std::string err;
+    EXPECT_EQ(run("optimize bad.json -o out.h5 --method reduced", &err), 2) << b.key << "\n" << err;
+    EXPECT_NE(err.find("bad.json"), std::string::npos) << err;
+    EXPECT_NE(err.find(b.key), std::string::npos) << err;
+    EXPECT_EQ(files(), before);
+  }
+}
+
+}  // namespace
+}  // namespace rodmesh
