@@ -365,8 +365,6 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
         message = "a rest-shape/radii round lowered the objective by less than the tolerance";
         break;
       }
-    } else if (alternating) {
-      // round start was recorded when the previous radii phase ended
     }
     if (!alternating && !lastPhase && ph == static_cast<std::size_t>(finest)) roundStart = res.objective;
   }
