@@ -101,6 +101,10 @@ Loaded load(const std::string& path) {
   return L;
 }
 
+std::string poseCount(const Archive& a) {
+  return std::to_string(a.poses.size()) + (a.poses.size() == 1 ? " pose" : " poses");
+}
+
 std::string poseNames(const Archive& a) {
   std::string names;
   for (const ArchivePose& p : a.poses) names += (names.empty() ? "" : ", ") + p.name;
@@ -323,6 +327,8 @@ VtkExportReport exportVisualization(const std::string& archivePath, const std::s
   if (xdmf && !outPath.empty() && ext != "xmf")
     throw InputError(outPath + ": an XDMF output must end in .xmf (or leave -o out: " + defaultXdmfPath(archivePath) +
                      ")");
+  if (!xdmf && outPath.empty())
+    throw InputError(std::string("-o/--output is required") + (opt.allPoses ? " (OUT.pvd for --all-poses)" : ""));
   if (!xdmf && opt.allPoses && ext != "pvd" && ext != "vtp")
     throw InputError(outPath + ": --all-poses writes a .pvd collection: name it OUT.pvd (or OUT.vtp)");
   if (!xdmf && !opt.allPoses && ext != "vtp" && ext != "pvd")
@@ -340,7 +346,7 @@ VtkExportReport exportVisualization(const std::string& archivePath, const std::s
     files.add(out, xdmfDocument(L, archivePath, out, fr));
     report.summary = "XDMF reading " + archivePath + ": " +
                      (fr ? std::to_string(fr->positions.size()) + " frames of pose '" + fr->name + "'"
-                         : "rest shape and " + std::to_string(L.a.poses.size()) + " poses (time 0: rest, k: pose k)");
+                         : "rest shape and " + poseCount(L.a) + " (time 0: rest, k: pose k)");
   } else if (opt.allPoses) {
     const std::string stem = stemOf(out), pvd = stem + ".pvd";
     std::vector<vtk::CollectionEntry> entries;
@@ -361,7 +367,7 @@ VtkExportReport exportVisualization(const std::string& archivePath, const std::s
       entries.push_back({static_cast<double>(++k), 0, p.name, baseName(f)});
     }
     files.add(pvd, vtk::collectionXml(entries));
-    report.summary = "rest shape and " + std::to_string(L.a.poses.size()) + " poses (timestep 0: rest, k: pose k)";
+    report.summary = "rest shape and " + poseCount(L.a) + " (timestep 0: rest, k: pose k)";
   } else if (ext == "vtp") {
     const ArchivePose* p = opt.pose.empty() ? nullptr : &findPose(L, opt.pose, archivePath);
     files.add(out, vtk::polyDataXml(p ? polyLines(L, p->positions, p->target) : polyLines(L, L.rest, MatX3())));

@@ -179,7 +179,7 @@ def render(archive, out, pose=None, view="iso", radius="n", dpi=100, panel_size=
     lo, hi = float(vals.min()), float(vals.max())
     if hi - lo < 1e-9 * max(abs(hi), 1e-12):
         lo, hi = 0.9 * lo, 1.1 * hi
-    lc = Line3DCollection(segs, cmap=RADIUS_CMAP, linewidth=3.0)
+    lc = Line3DCollection(segs, cmap=RADIUS_CMAP, linewidth=3.0, capstyle="butt")
     lc.set_array(vals)
     lc.set_clim(lo, hi)
     ax.add_collection3d(lc)
