@@ -292,6 +292,26 @@ TEST_F(VisualizationCliTest, RenderDrawsTheInitialDesignInRed) {
   expectPicture("big.png", 900, 300, "");
 }
 
+// A real optimize archive (the README's picture): initial design, target,
+// final positions and radii that vary; its .vtp files match it too.
+TEST_F(VisualizationCliTest, RenderAndExportOfAnOptimizeArchive) {
+  SetUpPythonOrFail();
+  writeText(path("small.json"), readText(kSourceDir + "/tests/cli/optimize_small.json"));
+  const Outcome o = rodmesh("-q optimize small.json -o small.h5 --method reduced --max-iter 60");
+  ASSERT_TRUE(o.status == 0 || o.status == 1) << o.err;  // 1: stopped at --max-iter, archive written
+  const Archive a = readArchive(path("small.h5"));
+  ASSERT_EQ(a.poses.size(), 2u);
+  ASSERT_EQ(a.poses[0].initialPositions.rows(), a.nVertices);
+  ASSERT_GT(a.radii.maxCoeff() - a.radii.minCoeff(), 1e-4) << "optimized radii vary";
+  const Outcome r = python("scripts/render.py", "small.h5 -o small.png");
+  ASSERT_EQ(r.status, 0) << r.err;
+  expectPicture("small.png", 1200, 400, "grey=yes red=yes green=yes radius=yes");
+  ASSERT_EQ(rodmesh("-q export small.h5 -o small.pvd --all-poses").status, 0);
+  expectVtkCheck("poses small.h5 small.pvd");
+  ASSERT_EQ(rodmesh("-q export small.h5 --xdmf").status, 0);
+  expectVtkCheck("xdmf small.h5 small.xmf");
+}
+
 TEST_F(VisualizationCliTest, RenderOfTheCantileverExample) {
   SetUpPythonOrFail();
   writeText(path("cantilever.json"), readText(kSourceDir + "/examples/cantilever.json"));
