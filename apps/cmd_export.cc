@@ -1,5 +1,6 @@
 // rodmesh export ARCHIVE.h5 -o OUT.{stl,obj,ply} [--pose NAME]: a printable,
 // one-piece solid of the designed rod mesh. See docs/meshing.md.
+#include "apps/cmd_export_vtk.hh"
 #include "apps/commands.hh"
 #include "apps/flag_checks.hh"
 #include "meshing/export.hh"
@@ -29,13 +30,16 @@ Command registerExport(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--fillet", o->exp.solid.fillet,
                   "blend radius where rods meet, 0 to 1 metres (default: half the median minor radius; 0: sharp)");
 
+  auto vtk = addVtkExportFlags(app);  // .vtp/.pvd/.xmf for ParaView: apps/cmd_export_vtk.cc
+
   Command c;
   c.app = app;
-  c.run = [o, app, &global]() -> int {
+  c.run = [o, app, vtk, &global]() -> int {
     requireFiniteNumbers(*app, {"--resolution", "--fillet"});
     if (app->count("--fillet") > 0 && !(o->exp.solid.fillet >= 0))
       throw InputError("--fillet must be a blend radius in [0, 1] m (got " + app->get_option("--fillet")->results()[0] +
                        ")");
+    if (auto status = runVtkExportIfRequested(o->archive, o->output, o->exp.pose, *vtk, global)) return *status;
     const meshing::ExportReport r = meshing::exportSolid(o->archive, o->output, o->exp);
     if (!global.quiet) std::cerr << meshing::formatExportReport(r) << "wrote " << o->output << "\n";
     return kExitDone;
