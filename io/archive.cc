@@ -300,6 +300,9 @@ void writeArchive(const Archive& a, const std::string& path) {
         writeScalarAttr<long long>(file, "iterations", o.iterations, H5T_NATIVE_LLONG);
         writeScalarAttr<double>(file, "time_s", o.timeSeconds, H5T_NATIVE_DOUBLE);
         writeStringAttr(file, "message", o.message);
+        writeScalarAttr<double>(file, "evaluation_time_s", o.evaluationSeconds, H5T_NATIVE_DOUBLE);
+        writeScalarAttr<double>(file, "solver_time_s", o.solverSeconds, H5T_NATIVE_DOUBLE);
+        writeScalarAttr<long long>(file, "peak_memory_bytes", o.peakMemoryBytes, H5T_NATIVE_LLONG);
       }
       for (const auto& [k, v] : a.extraRootAttributes) writeStringAttr(file, k.c_str(), v);
       writeStringDataset(file, "scene", a.sceneJson);
@@ -414,6 +417,9 @@ Archive readArchive(const std::string& path) {
     o.iterations = readScalarAttr<long long>(file, "iterations", H5T_NATIVE_LLONG).value_or(0);
     o.timeSeconds = readScalarAttr<double>(file, "time_s", H5T_NATIVE_DOUBLE).value_or(0.0);
     o.message = readStringAttr(file, "message", path);
+    o.evaluationSeconds = readScalarAttr<double>(file, "evaluation_time_s", H5T_NATIVE_DOUBLE).value_or(0.0);
+    o.solverSeconds = readScalarAttr<double>(file, "solver_time_s", H5T_NATIVE_DOUBLE).value_or(0.0);
+    o.peakMemoryBytes = readScalarAttr<long long>(file, "peak_memory_bytes", H5T_NATIVE_LLONG).value_or(0);
     a.optimize = std::move(o);
   }
   if (exists(file, "scene")) a.sceneJson = readStringDataset(file, "scene", path);

@@ -95,6 +95,9 @@ struct ArchiveOptimizeSummary {
   long long iterations = 0;  // optimizer iterations over the whole schedule (int64)
   double timeSeconds = 0.0;  // wall time of the optimization [s]
   std::string message;       // why the optimizer stopped, for humans
+  double evaluationSeconds = 0.0;  // of timeSeconds: in model evaluations (energies, derivatives, Newton)
+  double solverSeconds = 0.0;      // of timeSeconds: in the optimizer itself (SAND: Ipopt + MUMPS)
+  long long peakMemoryBytes = 0;   // peak resident memory of the process
 };
 
 struct Archive {

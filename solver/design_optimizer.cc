@@ -1,5 +1,7 @@
 #include "solver/design_optimizer.hh"
 
+#include "solver/parallel.hh"
+
 #include <Eigen/SparseCholesky>
 
 #include <algorithm>
@@ -9,27 +11,13 @@
 #include <sstream>
 #include <thread>
 
+#include <sys/resource.h>
+
 namespace rodmesh {
 namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// Runs fn(pose) for every pose on `threads` threads (static partition: the
-// result of each pose never depends on the thread count).
-template <class Fn>
-void forEachPose(int poses, int threads, Fn&& fn) {
-  threads = std::max(1, std::min(threads, poses));
-  if (threads == 1) {
-    for (int p = 0; p < poses; ++p) fn(p);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t)
-    pool.emplace_back([&, t] {
-      for (int p = t; p < poses; p += threads) fn(p);
-    });
-  for (std::thread& th : pool) th.join();
-}
 }  // namespace
 
 TargetObjective::TargetObjective(const Scene& scene, const EffectSet& effects) : scene_(scene), fx_(effects) {
@@ -118,6 +106,13 @@ bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& state
 }
 
 bool ReducedObjective::evaluate(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g) {
+  const auto t0 = Clock::now();
+  const bool ok = evaluateImpl(z, f, g);
+  seconds_ += since(t0);
+  return ok;
+}
+
+bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g) {
   if (!z.allFinite()) return false;
   const Design d = space_.toDesign(space_.unpack(phase_, z, base_));
   std::vector<PoseState> states;
@@ -190,16 +185,12 @@ void ReducedObjective::accept(const Eigen::VectorXd& z) {
 
 // ------------------------------------------------------------------------
 
-namespace {
-
 const char* phaseName(const DesignPhase& ph) {
   if (ph.radii && ph.restShape) return "joint";
   return ph.radii ? "radii" : "rest_shape";
 }
 
-// Scale of each free variable (radii: the bound range; displacements: a tenth
-// of the mean rod length), so that BFGS steps are comparable across kinds.
-Eigen::VectorXd variableScale(const DesignSpace& space, const DesignPhase& ph, const Scene& scene) {
+Eigen::VectorXd designVariableScale(const DesignSpace& space, const DesignPhase& ph, const Scene& scene) {
   Eigen::VectorXd lo, hi;
   space.bounds(ph, lo, hi);
   double rodLength = 0.0;
@@ -213,7 +204,35 @@ Eigen::VectorXd variableScale(const DesignSpace& space, const DesignPhase& ph, c
   return s;
 }
 
-}  // namespace
+std::vector<DesignPhase> designSchedule(const Scene& scene, const DesignSpace& space,
+                                        const DesignOptimizerOptions& opt) {
+  const int finest = space.numLevels() - 1;
+  const bool radii = scene.design.radii, rest = scene.design.restShape;
+  std::vector<DesignPhase> phases;
+  if (opt.schedule == Schedule::Joint) {
+    phases.push_back({radii, rest, finest});
+  } else {
+    if (radii)
+      for (int l = 0; l <= finest; ++l) phases.push_back({true, false, l});
+    if (rest) {
+      if (radii) {
+        for (int r = 0; r < opt.maxAlternations; ++r) {
+          phases.push_back({false, true, finest});
+          phases.push_back({true, false, finest});
+        }
+      } else {
+        phases.push_back({false, true, finest});
+      }
+    }
+  }
+  return phases;
+}
+
+long peakResidentMemory() {
+  struct rusage ru {};
+  if (getrusage(RUSAGE_SELF, &ru) != 0) return 0;
+  return static_cast<long>(ru.ru_maxrss) * 1024L;  // Linux: kilobytes
+}
 
 DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
                                       const DesignOptimizerOptions& opt, const DesignProgress& progress) {
@@ -254,24 +273,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   res.history.push_back({0, 0, "initial", res.objective, res.rms, 0.0, 0.0, since(t0), 1});
   if (progress) progress(res.history.back());
 
-  // The schedule.
-  std::vector<DesignPhase> phases;
-  if (opt.schedule == Schedule::Joint) {
-    phases.push_back({radii, rest, finest});
-  } else {
-    if (radii)
-      for (int l = 0; l <= finest; ++l) phases.push_back({true, false, l});
-    if (rest) {
-      if (radii) {
-        for (int r = 0; r < opt.maxAlternations; ++r) {
-          phases.push_back({false, true, finest});
-          phases.push_back({true, false, finest});
-        }
-      } else {
-        phases.push_back({false, true, finest});
-      }
-    }
-  }
+  const std::vector<DesignPhase> phases = designSchedule(scene, space, opt);
 
   Outcome stop = Outcome::Converged;
   std::string message = "schedule completed";
@@ -293,7 +295,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       break;
     }
     ReducedObjective ro(model, space, objective, phase, res.controls, opt.newton, opt.threads, states);
-    const Eigen::VectorXd s = variableScale(space, phase, scene);
+    const Eigen::VectorXd s = designVariableScale(space, phase, scene);
     Eigen::VectorXd lo, hi;
     space.bounds(phase, lo, hi);
     const Eigen::VectorXd y0 = space.pack(phase, res.controls).cwiseQuotient(s);
@@ -335,6 +337,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     res.evaluations += br.evaluations;
     res.failedEvaluations += br.failedEvaluations;
     res.equilibriumRestarts += ro.restarts();
+    res.evaluationSeconds += ro.evaluationSeconds();
     if (std::isfinite(br.f) && br.f <= res.objective) {
       res.controls = space.unpack(phase, br.x.cwiseProduct(s), res.controls);
       res.objective = br.f;
@@ -385,6 +388,8 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   res.iterations = iterations;
   res.status = {stop, message};
   res.timeSeconds = since(t0);
+  res.solverSeconds = std::max(0.0, res.timeSeconds - res.evaluationSeconds);
+  res.peakMemoryBytes = peakResidentMemory();
   return res;
 }
 

@@ -71,6 +71,9 @@ struct DesignIterate {
   std::string phase;  // "radii", "rest_shape" or "joint"
   double objective = 0.0, rms = 0.0, gradientNorm = 0.0, step = 0.0, elapsed = 0.0;
   int evaluations = 0;
+  // SAND: the largest equilibrium residual at the iterate (N) and Ipopt's
+  // dual infeasibility; 0 for the reduced method (its iterates are equilibria).
+  double constraintViolation = 0.0, dualInfeasibility = 0.0;
 };
 
 struct DesignOptimizerResult {
@@ -83,8 +86,23 @@ struct DesignOptimizerResult {
   double objective = 0.0, rms = 0.0;
   int iterations = 0, evaluations = 0, failedEvaluations = 0, equilibriumRestarts = 0;
   double timeSeconds = 0.0;
+  double evaluationSeconds = 0.0;       // in model evaluations (objective, equilibria, derivatives)
+  double solverSeconds = 0.0;           // in the optimizer itself (SAND: Ipopt and MUMPS)
+  long peakMemoryBytes = 0;             // peak resident memory of the process at the end
   std::vector<DesignIterate> history;   // starts with iteration 0 (initial design)
 };
+
+// The phases of a schedule (paper: radii level by level, then rest shape and
+// radii alternating at the finest level; joint: everything at the finest).
+std::vector<DesignPhase> designSchedule(const Scene& scene, const DesignSpace& space,
+                                        const DesignOptimizerOptions& options);
+const char* phaseName(const DesignPhase& phase);
+// Scale of each free variable of a phase (radii: the bound range;
+// displacements: a tenth of the mean rod length), so that optimizer steps
+// are comparable across kinds.
+Eigen::VectorXd designVariableScale(const DesignSpace& space, const DesignPhase& phase, const Scene& scene);
+// Peak resident memory of this process (bytes).
+long peakResidentMemory();
 
 using DesignProgress = std::function<void(const DesignIterate&)>;
 
@@ -107,8 +125,10 @@ class ReducedObjective {
   double lastSumSquared() const { return lastSumSq_; }
   int failedSolves() const { return failedSolves_; }
   int restarts() const { return restarts_; }
+  double evaluationSeconds() const { return seconds_; }  // spent in evaluate()
 
  private:
+  bool evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g);
   bool solvePoses(const Design& d, std::vector<PoseState>& states);
   SceneModel& model_;
   const DesignSpace& space_;
@@ -122,7 +142,7 @@ class ReducedObjective {
   // Cache of the last successful evaluation.
   Eigen::VectorXd lastZ_;
   std::vector<PoseState> lastStates_;
-  double lastF_ = 0.0, lastSumSq_ = 0.0;
+  double lastF_ = 0.0, lastSumSq_ = 0.0, seconds_ = 0.0;
   int failedSolves_ = 0, restarts_ = 0;
 };
 
