@@ -63,6 +63,10 @@ void checkOptions(OptimizeOptions& o) {
       throw InputError("optimize: --ipopt " + kv + ": " + why);
 #endif
   }
+#ifdef RODMESH_HAVE_NLP
+  if (o.method == "sand")
+    if (std::string why = checkIpoptOptionsFile(); !why.empty()) throw InputError("optimize: " + why);
+#endif
   o.optimizer.schedule = o.schedule == "joint" ? Schedule::Joint : Schedule::Paper;
   if (std::string why = o.optimizer.isValid(); !why.empty()) throw InputError("optimize: " + why);
 }

@@ -37,6 +37,8 @@ std::string checkIpoptOption(const std::string& key, const std::string& value);
 
 // Whether ./ipopt.opt exists (Ipopt reads it; its options override the defaults).
 bool ipoptOptionsFilePresent();
+// Empty if ./ipopt.opt is absent or Ipopt accepts it; otherwise why not.
+std::string checkIpoptOptionsFile();
 
 DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, const SandOptions& options,
                                    const DesignProgress& progress = {});

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace rodmesh {
@@ -240,6 +241,16 @@ std::string checkIpoptOption(const std::string& key, const std::string& value) {
 
 bool ipoptOptionsFilePresent() { return std::ifstream("ipopt.opt").good(); }
 
+std::string checkIpoptOptionsFile() {
+  if (!ipoptOptionsFilePresent()) return "";
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  app->Options()->SetIntegerValue("print_level", 0);
+  app->Options()->SetStringValue("sb", "yes");
+  if (app->Initialize() != Ipopt::Solve_Succeeded)
+    return "./ipopt.opt: Ipopt rejects this options file (an unknown option or an invalid value)";
+  return "";
+}
+
 DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, const SandOptions& so,
                                    const DesignProgress& progress) {
   const auto t0 = Clock::now();
@@ -325,6 +336,8 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   for (const auto& [key, value] : so.ipopt)
     if (std::string why = setOption(*app, key, value); !why.empty()) return finish(Outcome::InvalidProblem, why);
 
+  std::set<std::string> userSet;
+  for (const auto& kv : so.ipopt) userSet.insert(kv.first);
   const std::vector<DesignPhase> phases = designSchedule(scene, space, opt);
   const int finest = space.numLevels() - 1;
   const bool alternatingSchedule = opt.schedule == Schedule::Paper && scene.design.radii && scene.design.restShape;
@@ -357,6 +370,12 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       states[k].charts = sys.charts();
     }
     scaling.variable = designVariableScale(space, phase, scene);
+    // Objective relative to the phase's start (its scaled value starts at 1,
+    // so the barrier parameter means the same in every phase); later phases
+    // start at a converged design, so the barrier starts small instead of
+    // pushing every design value away from its bounds first.
+    scaling.objective = std::max(res.objective, 1e-300);
+    if (ph > 0 && !userSet.count("mu_init")) o.SetNumericValue("mu_init", 1e-4);
     SandNlp nlp(model, space, objective, phase, res.controls, states, scaling, opt.threads);
     const int base = iterations;
     SandTnlp::Hooks hooks;
