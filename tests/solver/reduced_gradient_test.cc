@@ -6,6 +6,7 @@
 // explicit position; 3D and planar.
 #include "model/design_space.hh"
 #include "solver/design_optimizer.hh"
+#include "tests/testutil/scenes.hh"
 #include "tests/testutil/taylor.hh"
 
 #include <gtest/gtest.h>
@@ -16,28 +17,18 @@
 namespace rodmesh {
 namespace {
 
-// Three curved rods meeting at vertex 0, one split at vertex 2 (a two-rod
-// connection), a clamp at the far end of rod 1, a pin at rest at the far end
+// The shared test network (tests/testutil/scenes.hh) with four vertices per
+// arm: three curved rods meeting at vertex 0, one split at vertex 2 (a two-rod
+// connection); a clamp at the far end of rod 1, a pin at rest at the far end
 // of rod 2, an explicit fixed position on rod 3; two poses.
 Scene network(bool planar) {
-  Scene s;
+  testutil::StarNetworkOptions o;
+  o.verticesPerArm = 4;
+  o.lift = planar ? 0.0 : 0.0008;
+  o.radiusBase = Vec2(0.0012, 0.0009);
+  o.radiusStep = Vec2(0.0001, 0.0001);
+  Scene s = testutil::starNetwork(o);
   s.sourcePath = "<reduced>";
-  s.material = Material{2e7, 0.45, 1100.0};
-  s.vertices.push_back(Vec3(0, 0, 0));
-  const double angles[3] = {0.1, 2.2, 4.1};
-  for (int r = 0; r < 3; ++r) {
-    const Vec3 dir(std::cos(angles[r]), std::sin(angles[r]), 0.0);
-    const Vec3 side(-dir.y(), dir.x(), 0.0);
-    const int first = static_cast<int>(s.vertices.size());
-    for (int i = 1; i <= 4; ++i)
-      s.vertices.push_back(0.01 * i * dir + 0.0008 * i * i * side + Vec3(0, 0, planar ? 0.0 : 0.0008 * i * i));
-    s.rods.push_back(Rod{{0, first, first + 1, first + 2, first + 3}, std::nullopt});
-  }
-  s.rods[0].vertices = {0, 1, 2};
-  s.rods.push_back(Rod{{2, 3, 4}, std::nullopt});
-  for (std::size_t v = 0; v < s.vertices.size(); ++v)
-    s.radii.push_back(Vec2(0.0012 + 0.0001 * (v % 4), 0.0009 + 0.0001 * (v % 3)));
-  s.gravity = planar ? Vec3(0.0, -9.81, 0.0) : Vec3(0.5, -2.0, -9.81);
   for (int k = 0; k < 2; ++k) {
     Pose p;
     p.name = "p" + std::to_string(k);
@@ -107,8 +98,12 @@ TEST_P(ReducedGradient, MatchesTaylorRemainderOfTheResolvedObjective) {
   EXPECT_TAYLOR_ORDER(r, 1.85) << r.table();
   // The gradient is not dominated by a single kind of parameter: the rest
   // shape and radii parts are both non-zero when free.
-  if (c.radii) EXPECT_GT(g.head(nr).norm(), 0.0);
-  if (c.rest) EXPECT_GT(g.tail(g.size() - nr).norm(), 0.0);
+  if (c.radii) {
+    EXPECT_GT(g.head(nr).norm(), 0.0);
+  }
+  if (c.rest) {
+    EXPECT_GT(g.tail(g.size() - nr).norm(), 0.0);
+  }
 }
 
 std::string caseName(const testing::TestParamInfo<Case>& i) {
