@@ -33,7 +33,8 @@ double relativeSmallestEigenvalue(const Scene& s, const SceneModel& planar, cons
   // eigenvalues would drown in the largest.
   const Eigen::VectorXd scale = H.diagonal().cwiseAbs().cwiseSqrt().cwiseInverse();
   H = scale.asDiagonal() * H * scale.asDiagonal();
-  const Eigen::VectorXd lambda = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(H, Eigen::EigenvaluesOnly).eigenvalues();
+  const Eigen::VectorXd lambda =
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(H, Eigen::EigenvaluesOnly).eigenvalues();
   return lambda.minCoeff() / lambda.cwiseAbs().maxCoeff();
 }
 
