@@ -338,17 +338,17 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
 
   std::set<std::string> userSet;
   for (const auto& kv : so.ipopt) userSet.insert(kv.first);
-  const std::vector<DesignPhase> phases = designSchedule(scene, space, opt);
-  const int finest = space.numLevels() - 1;
-  const bool alternatingSchedule = opt.schedule == Schedule::Paper && scene.design.radii && scene.design.restShape;
+  const std::vector<DesignStep> steps = designSchedule(scene, space, opt);
   Outcome stop = Outcome::Converged;
   std::string message = "schedule completed";
   int iterations = 0;
   double roundStart = res.objective;
   std::vector<PoseState> rawStates = states;  // Ipopt's own equilibria of the kept design
 
-  for (std::size_t ph = 0; ph < phases.size(); ++ph) {
-    const DesignPhase& phase = phases[ph];
+  for (std::size_t ph = 0; ph < steps.size(); ++ph) {
+    const DesignPhase& phase = steps[ph].phase;
+    const int round = steps[ph].round;
+    if (round > 0 && phase.restShape) roundStart = res.objective;
     const int remaining = opt.maxIterations - iterations;
     if (remaining <= 0) {
       stop = Outcome::MaxIterations;
@@ -465,16 +465,16 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       message = "every target met to round-off";
       break;
     }
-    const bool alternating = alternatingSchedule && ph >= static_cast<std::size_t>(finest + 1);
-    if (alternating && !phase.restShape) {
+    // The rounds end when one (rest shape, then radii) lowers the objective
+    // by less than roundRelativeDecrease.
+    if (round > 0 && phase.radii) {
       const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
-      roundStart = res.objective;
-      if (gain <= opt.tolerance * 10) {
-        message = "a rest-shape/radii round lowered the objective by less than the tolerance";
+      if (gain < opt.roundRelativeDecrease) {
+        message = "a rest-shape/radii round lowered the objective by less than " +
+                  std::to_string(opt.roundRelativeDecrease * 100.0) + "%";
         break;
       }
     }
-    if (!alternating && ph == static_cast<std::size_t>(finest)) roundStart = res.objective;
   }
   res.iterations = iterations;
   res.states = rawStates;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <sstream>
 #include <thread>
@@ -63,7 +64,11 @@ std::string DesignOptimizerOptions::isValid() const {
   if (!(timeLimit >= 0) || !std::isfinite(timeLimit)) return "time limit must be a non-negative number of seconds";
   if (!(tolerance > 0 && tolerance < 1)) return "tolerance must lie in (0, 1)";
   if (threads < 1) return "threads must be at least 1";
-  if (maxAlternations < 0 || maxPhaseIterations < 1) return "bad schedule limits";
+  if (maxAlternations < 0 || maxLevelIterations < 1 || maxPhaseIterations < 1 || phaseWindow < 1)
+    return "bad schedule limits (rounds, iterations per phase or window)";
+  if (!(phaseRelativeDecrease >= 0 && phaseRelativeDecrease < 1) ||
+      !(roundRelativeDecrease >= 0 && roundRelativeDecrease < 1))
+    return "relative decreases of a phase and of a round must lie in [0, 1)";
   return newton.isValid();
 }
 
@@ -204,28 +209,28 @@ Eigen::VectorXd designVariableScale(const DesignSpace& space, const DesignPhase&
   return s;
 }
 
-std::vector<DesignPhase> designSchedule(const Scene& scene, const DesignSpace& space,
-                                        const DesignOptimizerOptions& opt) {
+std::vector<DesignStep> designSchedule(const Scene& scene, const DesignSpace& space,
+                                       const DesignOptimizerOptions& opt) {
   const int finest = space.numLevels() - 1;
   const bool radii = scene.design.radii, rest = scene.design.restShape;
-  std::vector<DesignPhase> phases;
+  std::vector<DesignStep> steps;
   if (opt.schedule == Schedule::Joint) {
-    phases.push_back({radii, rest, finest});
+    steps.push_back({{radii, rest, finest}, 0});
   } else {
     if (radii)
-      for (int l = 0; l <= finest; ++l) phases.push_back({true, false, l});
+      for (int l = 0; l <= finest; ++l) steps.push_back({{true, false, l}, 0});
     if (rest) {
       if (radii) {
-        for (int r = 0; r < opt.maxAlternations; ++r) {
-          phases.push_back({false, true, finest});
-          phases.push_back({true, false, finest});
+        for (int r = 1; r <= opt.maxAlternations; ++r) {
+          steps.push_back({{false, true, finest}, r});
+          steps.push_back({{true, false, finest}, r});
         }
       } else {
-        phases.push_back({false, true, finest});
+        steps.push_back({{false, true, finest}, 0});
       }
     }
   }
-  return phases;
+  return steps;
 }
 
 long peakResidentMemory() {
@@ -273,15 +278,16 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   res.history.push_back({0, 0, "initial", res.objective, res.rms, 0.0, 0.0, since(t0), 1});
   if (progress) progress(res.history.back());
 
-  const std::vector<DesignPhase> phases = designSchedule(scene, space, opt);
+  const std::vector<DesignStep> steps = designSchedule(scene, space, opt);
 
   Outcome stop = Outcome::Converged;
   std::string message = "schedule completed";
   int iterations = 0;
-  double roundStart = res.objective;
-  for (std::size_t ph = 0; ph < phases.size(); ++ph) {
-    const DesignPhase& phase = phases[ph];
-    const bool alternating = opt.schedule == Schedule::Paper && radii && rest && ph >= static_cast<std::size_t>(finest + 1);
+  double roundStart = res.objective;  // objective at the start of the current round
+  for (std::size_t ph = 0; ph < steps.size(); ++ph) {
+    const DesignPhase& phase = steps[ph].phase;
+    const int round = steps[ph].round;
+    const bool lastPhase = ph + 1 == steps.size();
     const int remaining = opt.maxIterations - iterations;
     if (remaining <= 0) {
       stop = Outcome::MaxIterations;
@@ -294,17 +300,24 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       message = "time limit reached";
       break;
     }
+    if (round > 0 && phase.restShape) roundStart = res.objective;
     ReducedObjective ro(model, space, objective, phase, res.controls, opt.newton, opt.threads, states);
     const Eigen::VectorXd s = designVariableScale(space, phase, scene);
     Eigen::VectorXd lo, hi;
     space.bounds(phase, lo, hi);
     const Eigen::VectorXd y0 = space.pack(phase, res.controls).cwiseQuotient(s);
     BfgsOptions bo;
-    const bool lastPhase = ph + 1 == phases.size() || opt.schedule == Schedule::Joint;
-    bo.maxIterations = lastPhase ? remaining : std::min(remaining, opt.maxPhaseIterations);
+    // Every phase stops on the gradient test, on the relative decrease over
+    // a window, and on its cap (radius levels: maxLevelIterations; phases of
+    // the alternation, the last one included: maxPhaseIterations); the last
+    // phase of a schedule without alternation (joint, radii only, rest shape
+    // only) is the whole rest of the run and only has the run's limits.
+    const int cap = round > 0 ? opt.maxPhaseIterations : lastPhase ? remaining : opt.maxLevelIterations;
+    bo.maxIterations = std::min(remaining, cap);
     bo.timeLimit = opt.timeLimit > 0 ? std::max(1e-3, opt.timeLimit - elapsed) : 0.0;
     bo.gradientTolerance = opt.tolerance;
-    bo.relativeDecrease = opt.tolerance;
+    bo.relativeDecrease = opt.phaseRelativeDecrease;
+    bo.stallWindow = opt.phaseWindow;
     bo.initialMaxStep = 0.1;
     bo.minStep = 1e-9;
     bo.maxStepLimit = 10.0;
@@ -353,23 +366,34 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       message = br.status.message;
       break;
     }
-    if (lastPhase) {
-      stop = o == Outcome::Stalled ? Outcome::Converged : o;
-      message = br.status.message;
-      if (o == Outcome::MaxIterations) message = "iteration limit reached";
+    if (o == Outcome::MaxIterations && iterations >= opt.maxIterations) {
+      stop = Outcome::MaxIterations;
+      message = "iteration limit reached";
+      break;
     }
-    // The alternation ends when a round (rest shape then radii) no longer
-    // lowers the objective by the tolerance.
-    if (alternating && !phase.restShape) {
+    // A round (rest shape, then radii) ends the run when it lowered the
+    // objective by less than roundRelativeDecrease.
+    if (round > 0 && phase.radii) {
       const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
-      roundStart = res.objective;
-      if (gain <= opt.tolerance * 10) {
+      if (gain < opt.roundRelativeDecrease) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "rest-shape/radii round %d lowered the objective by %.2g%% (< %.2g%%)", round,
+                      100 * gain, 100 * opt.roundRelativeDecrease);
         stop = Outcome::Converged;
-        message = "a rest-shape/radii round lowered the objective by less than the tolerance";
+        message = buf;
         break;
       }
+      if (lastPhase) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "alternation limit reached: round %d still lowered the objective by %.2g%%",
+                      round, 100 * gain);
+        stop = Outcome::MaxIterations;
+        message = buf;
+      }
+    } else if (lastPhase) {
+      stop = o == Outcome::Stalled ? Outcome::Converged : o;
+      message = br.status.message;
     }
-    if (!alternating && !lastPhase && ph == static_cast<std::size_t>(finest)) roundStart = res.objective;
   }
 
   res.design = space.toDesign(res.controls);

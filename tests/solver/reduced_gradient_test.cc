@@ -64,8 +64,12 @@ TEST_P(ReducedGradient, MatchesTaylorRemainderOfTheResolvedObjective) {
   EXPECT_TAYLOR_ORDER(r, 1.85) << r.table();
   // The gradient is not dominated by a single kind of parameter: the rest
   // shape and radii parts are both non-zero when free.
-  if (c.radii) EXPECT_GT(g.head(nr).norm(), 0.0);
-  if (c.rest) EXPECT_GT(g.tail(g.size() - nr).norm(), 0.0);
+  if (c.radii) {
+    EXPECT_GT(g.head(nr).norm(), 0.0);
+  }
+  if (c.rest) {
+    EXPECT_GT(g.tail(g.size() - nr).norm(), 0.0);
+  }
 }
 
 std::string caseName(const testing::TestParamInfo<Case>& i) {
