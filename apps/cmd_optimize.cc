@@ -88,8 +88,8 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--time-limit", opts->optimizer.timeLimit, "wall-clock limit in seconds (0: none)")
       ->capture_default_str();
   app->add_option("--tol", opts->optimizer.tolerance,
-                  "relative tolerance: projected gradient against its value at the start of a phase, and relative "
-                  "decrease of the objective")
+                  "relative tolerance; reduced: projected gradient against its value at the start of a phase; sand: "
+                  "Ipopt's tol and dual_inf_tol, the objective being scaled to 1 at the start of each phase")
       ->capture_default_str();
   app->add_option("--schedule", opts->schedule,
                   "paper (radii by levels, then rest shape and radii alternating) or joint (everything at once)")

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -305,11 +306,13 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   // relative to each pose's load (newtons).
   SandScaling scaling;
   scaling.objective = f0;
+  double minLoad = std::numeric_limits<double>::infinity();
   for (int k = 0; k < K; ++k) {
     PoseSystem& sys = model.pose(k);
     sys.setLoadFactor(1.0);
     const double L = loadScale(sys, d0);
     scaling.load.push_back(std::isfinite(L) && L > 0 ? L : 1.0);
+    minLoad = std::min(minLoad, scaling.load.back());
   }
 
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
@@ -370,6 +373,17 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       states[k].charts = sys.charts();
     }
     scaling.variable = designVariableScale(space, phase, scene);
+    {
+      // Radii are scaled by their own current value (within the bounds), so
+      // that thin and thick rods (up to the bounds' ratio) take comparable
+      // relative steps.
+      Eigen::VectorXd lo, hi;
+      space.bounds(phase, lo, hi);
+      const Eigen::VectorXd z = space.pack(phase, res.controls);
+      for (int i = 0; i < z.size(); ++i)
+        if (std::isfinite(lo[i]) && std::isfinite(hi[i]) && lo[i] > 0)
+          scaling.variable[i] = std::clamp(z[i], lo[i], hi[i]);
+    }
     // Objective relative to the phase's start (its scaled value starts at 1,
     // so the barrier parameter means the same in every phase); later phases
     // start at a converged design, so the barrier starts small instead of
@@ -378,6 +392,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     if (ph > 0 && !userSet.count("mu_init")) o.SetNumericValue("mu_init", 1e-4);
     SandNlp nlp(model, space, objective, phase, res.controls, states, scaling, opt.threads);
     const int base = iterations;
+    std::pair<double, std::vector<double>> bestIterate{std::numeric_limits<double>::infinity(), {}};
     SandTnlp::Hooks hooks;
     hooks.progress = [&](int iter, const double* x, double infDu, double alphaPr) {
       if (iter == 0 && base > 0) return;  // a phase starts where the previous one ended
@@ -397,6 +412,12 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       it.evaluations = nlp.evaluations();
       res.history.push_back(it);
       if (progress) progress(it);
+      // The best nearly feasible iterate, a fallback when the final one is
+      // not usable (a limit stopped Ipopt mid-way).
+      if (it.constraintViolation <= 1e-3 * minLoad && it.objective < bestIterate.first) {
+        bestIterate.first = it.objective;
+        bestIterate.second.assign(x, x + nlp.numVariables());
+      }
     };
     hooks.stop = [&] {
       if (opt.stopRequested && opt.stopRequested()) return StopReason::Interrupted;
@@ -413,8 +434,13 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     // Keep the phase's design if its equilibria exist (Newton from Ipopt's
     // positions) and the objective did not rise.
     bool kept = false;
-    if (tnlp->finalPoint().size() == static_cast<std::size_t>(nlp.numVariables())) {
-      const double* x = tnlp->finalPoint().data();
+    std::vector<std::vector<double>> candidates;
+    if (tnlp->finalPoint().size() == static_cast<std::size_t>(nlp.numVariables()))
+      candidates.push_back(tnlp->finalPoint());
+    if (!bestIterate.second.empty()) candidates.push_back(bestIterate.second);
+    for (const std::vector<double>& point : candidates) {
+      if (kept) break;
+      const double* x = point.data();
       const ControlValues cand = nlp.controls(x);
       const Design d = space.toDesign(cand);
       const std::vector<PoseState> raw = nlp.states(x);
