@@ -496,8 +496,10 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     if (round > 0 && phase.radii) {
       const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
       if (gain < opt.roundRelativeDecrease) {
-        message = "a rest-shape/radii round lowered the objective by less than " +
-                  std::to_string(opt.roundRelativeDecrease * 100.0) + "%";
+        std::ostringstream m;
+        m << "a rest-shape/radii round lowered the objective by less than " << opt.roundRelativeDecrease * 100.0
+          << "%";
+        message = m.str();
         break;
       }
     }
