@@ -67,13 +67,14 @@ TEST_P(SandHard, EndsCleanly) {
 }
 
 const HardCase kCases[] = {
-    // Targets 5 cm above every pose: no design reaches them.
+    // Targets 5 cm above every pose: no design reaches them (radii alone
+    // lower the RMS by under 2% within the iteration budget).
     {"unreachable_targets",
      [](Scene& s) {
        for (Pose& p : s.poses)
          for (Vec3& t : p.target) t += Vec3(0.0, 0.0, 0.05);
      },
-     true},
+     false},
     // Targets mirrored through the sheet's plane (the sheet would have to
     // sag upwards under gravity).
     {"mirrored_targets",
