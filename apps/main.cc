@@ -36,7 +36,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    // One line, like every other bad input (issue 9): the flag, the value and
+    // what is allowed, without CLI11's "Run with --help" line.
+    std::cerr << "rodmesh: error: " << e.what() << "\n";
     return kExitBadInput;
   }
   for (Command& c : commands) {

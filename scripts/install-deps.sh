@@ -11,6 +11,9 @@ packages=(
   python3-numpy python3-h5py hdf5-tools
   # scripts/render.py; tests/cli/vtk_check.py reads .vtp files with VTK's own reader
   python3-matplotlib python3-vtk9
+  # scripts/fuzz.sh: clang 14; libFuzzer and the sanitizer runtimes are in
+  # libclang-rt-14-dev, only recommended by clang
+  clang libclang-rt-14-dev
 )
 
 missing=()
