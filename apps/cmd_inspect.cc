@@ -10,24 +10,6 @@
 
 namespace rodmesh::cli {
 
-namespace {
-// Text from the archive as printed: control characters (terminal escapes
-// included) shown as \xNN.
-std::string shown(const std::string& s) {
-  std::string out;
-  for (unsigned char c : s) {
-    if (c < 0x20 || c == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", c);
-      out += buf;
-    } else {
-      out.push_back(static_cast<char>(c));
-    }
-  }
-  return out;
-}
-}  // namespace
-
 Command registerInspect(CLI::App& root, const GlobalOptions&) {
   auto path = std::make_shared<std::string>();
   CLI::App* app = root.add_subcommand("inspect", "human summary of a result archive");
@@ -38,19 +20,21 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
     // Every dataset and attribute checked before use (io/archive.hh); a bad
     // archive is an InputError naming the file and the dataset.
     const Archive a = loadArchive(*path).archive;
-    std::printf("archive   %s\n", shown(*path).c_str());
-    std::printf("format    %s (written by rodmesh %s)\n", shown(a.format).c_str(), shown(a.version).c_str());
-    std::printf("command   %s\n", shown(a.command).c_str());
-    std::printf("status    %s\n", shown(a.status).c_str());
+    // Text from the archive is printed with control characters (terminal
+    // escapes included) shown as \xNN.
+    std::printf("archive   %s\n", printableText(*path).c_str());
+    std::printf("format    %s (written by rodmesh %s)\n", printableText(a.format).c_str(), printableText(a.version).c_str());
+    std::printf("command   %s\n", printableText(a.command).c_str());
+    std::printf("status    %s\n", printableText(a.status).c_str());
     if (a.optimize) {
-      std::printf("optimize  method %s, %lld iterations in %s\n", shown(a.optimize->method).c_str(), a.optimize->iterations,
+      std::printf("optimize  method %s, %lld iterations in %s\n", printableText(a.optimize->method).c_str(), a.optimize->iterations,
                   formatSeconds(a.optimize->timeSeconds).c_str());
-      if (!a.optimize->message.empty()) std::printf("          %s\n", shown(a.optimize->message).c_str());
+      if (!a.optimize->message.empty()) std::printf("          %s\n", printableText(a.optimize->message).c_str());
     }
     std::printf("model     %lld vertices, %lld edges, %lld rods, %lld connections, %lld unknowns per pose%s\n",
                 a.nVertices, a.nEdges, a.nRods, a.nConnections, a.dofsPerPose, a.planar ? " (planar)" : "");
-    std::printf("effects   %s\n", shown(a.effects).c_str());
-    if (!a.effectsReason.empty()) std::printf("          %s\n", shown(a.effectsReason).c_str());
+    std::printf("effects   %s\n", printableText(a.effects).c_str());
+    if (!a.effectsReason.empty()) std::printf("          %s\n", printableText(a.effectsReason).c_str());
     if (a.radii.rows() > 0) {
       std::printf("radii     r_t %.3f..%.3f mm, r_n %.3f..%.3f mm\n", a.radii.col(0).minCoeff() * 1e3,
                   a.radii.col(0).maxCoeff() * 1e3, a.radii.col(1).minCoeff() * 1e3, a.radii.col(1).maxCoeff() * 1e3);
@@ -71,8 +55,8 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
       double maxDisp = 0.0;
       if (a.restPositions.rows() == p.positions.rows())
         maxDisp = (p.positions - a.restPositions).rowwise().norm().maxCoeff();
-      std::printf("pose      %-16s %-13s residual %.3e N, max displacement %.4f mm", shown(p.name).c_str(),
-                  shown(p.status).c_str(), p.residualNorm, maxDisp * 1e3);
+      std::printf("pose      %-16s %-13s residual %.3e N, max displacement %.4f mm", printableText(p.name).c_str(),
+                  printableText(p.status).c_str(), p.residualNorm, maxDisp * 1e3);
       if (p.rmsError) std::printf(", RMS error %.4f mm", *p.rmsError * 1e3);
       if (p.rmsError && p.initialPositions.rows() == p.target.rows() && p.target.rows() > 0)
         std::printf(" (initially %.4f mm)",
@@ -84,7 +68,7 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
       if (const auto rms = overallRmsError(a)) std::printf("rms       %.4f mm over all poses\n", *rms * 1e3);
     }
     for (const ArchiveFrames& f : a.frames)
-      std::printf("frames    %-16s %zu frames over %.3f s\n", shown(f.name).c_str(), f.positions.size(),
+      std::printf("frames    %-16s %zu frames over %.3f s\n", printableText(f.name).c_str(), f.positions.size(),
                   f.time.size() ? f.time[f.time.size() - 1] : 0.0);
     if (a.history && !a.history->iteration.empty()) {
       const ArchiveHistory& h = *a.history;

@@ -69,6 +69,10 @@ const char* className(H5T_class_t c) {
   }
 }
 
+[[noreturn]] void failAt(const std::string& file, const std::string& object, const std::string& what) {
+  throw InputError(file + ": " + printableText(object, 300) + ": " + printableText(what, 500));
+}
+
 // A value for a message.
 std::string num(double v) {
   char buf[40];
@@ -92,9 +96,7 @@ class Reader {
     if (progress_) progress_(object, bytes);
   }
 
-  [[noreturn]] void fail(const std::string& object, const std::string& what) const {
-    throw InputError(file_ + ": " + object + ": " + what);
-  }
+  [[noreturn]] void fail(const std::string& object, const std::string& what) const { failAt(file_, object, what); }
 
   // ---- objects
 
@@ -139,7 +141,7 @@ class Reader {
     std::set<std::string> seen;
     for (const std::string& n : c.names) {
       if (n.empty() || n == "." || n.find('/') != std::string::npos || n.find('\0') != std::string::npos)
-        fail(path, "member name \"" + printable(n) + "\" is not a valid name");
+        fail(path, "member name \"" + n + "\" is not a valid name");
       if (!seen.insert(n).second) fail(join(path, n), "listed twice (corrupted group)");
     }
     return c.names;
@@ -269,22 +271,6 @@ class Reader {
 
   static std::string attrName(const std::string& objPath, const char* name) {
     return objPath + " attribute " + name;
-  }
-
-  // A name for a message: control bytes escaped, at most 60 bytes.
-  static std::string printable(const std::string& s) {
-    std::string out;
-    for (std::size_t i = 0; i < s.size() && i < 60; ++i) {
-      const unsigned char c = static_cast<unsigned char>(s[i]);
-      if (c < 0x20 || c == 0x7f) {
-        char buf[8];
-        std::snprintf(buf, sizeof buf, "\\x%02x", c);
-        out += buf;
-      } else {
-        out.push_back(static_cast<char>(c));
-      }
-    }
-    return s.size() > 60 ? out + "..." : out;
   }
 
   hid_t openAttr(hid_t obj, const std::string& objPath, const char* name, bool required) const {
@@ -424,7 +410,7 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
   const std::string root = "/";
   a.format = r.stringAttr(file, root, "format", false).value_or("");
   if (a.format != "rodmesh-archive/1")
-    throw InputError(name + ": not a rodmesh archive (format attribute is \"" + a.format +
+    throw InputError(name + ": not a rodmesh archive (format attribute is \"" + printableText(a.format, 60) +
                      "\", expected \"rodmesh-archive/1\")");
   a.version = *r.stringAttr(file, root, "version", true);
   a.command = *r.stringAttr(file, root, "command", true);
@@ -729,7 +715,7 @@ Archive readArchiveIsolated(const std::string& path) {
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
-  const std::string where = path + ": " + (object.empty() ? std::string() : object + ": ");
+  const std::string where = path + ": " + (object.empty() ? std::string() : printableText(object, 300) + ": ");
   if (timedOut)
     throw InputError(where + "the HDF5 library did not finish reading it in time (a corrupted file makes it loop)");
   if (!error.empty()) throw InputError(error);
@@ -754,9 +740,7 @@ Archive readArchiveImage(const void* data, std::size_t size, const std::string& 
 }
 
 void validateArchive(const Archive& a, const Scene& scene, const std::string& path) {
-  auto fail = [&](const std::string& object, const std::string& what) {
-    throw InputError(path + ": " + object + ": " + what);
-  };
+  auto fail = [&](const std::string& object, const std::string& what) { failAt(path, object, what); };
   if (a.status != "converged" && a.status != "not_converged" && a.status != "failed")
     fail("/ attribute status", "expected converged, not_converged or failed, got \"" + a.status + "\"");
   const long long nv = a.restPositions.rows();

@@ -100,7 +100,7 @@ class PathSax : public nlohmann::json_sax<json> {
         const long index = innermost ? f.index + 1 : f.index;
         p += "[" + std::to_string(index < 0 ? 0 : index) + "]";
       } else if (f.hasKey) {
-        p += (p.empty() ? "" : ".") + f.key;
+        p = withKey(p, f.key);
       }
     }
     return p;
@@ -158,23 +158,6 @@ std::string parserMessage(const std::string& what) {
   }
   const std::size_t bracket = what.find("] ");
   return bracket == std::string::npos ? what : what.substr(bracket + 2);
-}
-
-// A token for a message: at most 40 bytes, control bytes escaped.
-std::string printable(const std::string& t) {
-  std::string out;
-  for (std::size_t i = 0; i < t.size() && i < 40; ++i) {
-    const unsigned char c = static_cast<unsigned char>(t[i]);
-    if (c >= 0x20 && c < 0x7f) {
-      out.push_back(static_cast<char>(c));
-    } else {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", c);
-      out += buf;
-    }
-  }
-  if (t.size() > 40) out += "...";
-  return out;
 }
 
 void appendShort(const json& j, std::string& out, std::size_t limit, bool& cut) {
@@ -236,6 +219,18 @@ std::string shortJson(const json& j, std::size_t maxChars) {
   return out;
 }
 
+std::string quotedText(const std::string& text, std::size_t maxChars) {
+  return shortJson(json(text.substr(0, maxChars + 1)), maxChars);
+}
+
+std::string withKey(const std::string& path, const std::string& key) {
+  bool plain = !key.empty() && key.size() <= 40;
+  for (char c : key)
+    plain = plain && ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_');
+  if (plain) return path.empty() ? key : path + "." + key;
+  return path + "[" + quotedText(key, 40) + "]";
+}
+
 json parseJsonText(const std::string& text, const std::string& path) {
   checkDepth(text, path);
   json doc;
@@ -247,12 +242,14 @@ json parseJsonText(const std::string& text, const std::string& path) {
     // A number beyond the double range: name it and where it is.
     const std::size_t start = sax.position() >= sax.token().size() ? sax.position() - sax.token().size() : 0;
     throw InputError(path + ": " + (where.empty() ? std::string("<root>") : where) + ": number " +
-                     printable(sax.token()) + " is out of range (beyond +-1.8e308) (" + lineColumn(text, start) +
+                     printableText(sax.token(), 40) + " is out of range (beyond +-1.8e308) (" + lineColumn(text, start) +
                      ")");
   }
   // The parser reports the position after the character it stopped at.
+  std::string what = parserMessage(sax.what());
+  if (what.size() > 240) what = what.substr(0, 237) + "...";
   throw InputError(path + ": not valid JSON (" + lineColumn(text, sax.position() > 0 ? sax.position() - 1 : 0) +
-                   (where.empty() ? std::string() : ", in " + where) + "): " + parserMessage(sax.what()));
+                   (where.empty() ? std::string() : ", in " + where) + "): " + printableText(what, 240));
 }
 
 }  // namespace rodmesh

@@ -29,4 +29,13 @@ nlohmann::json parseJsonText(const std::string& text, const std::string& path);
 // `maxChars`, whatever the size and depth of the value.
 std::string shortJson(const nlohmann::json& j, std::size_t maxChars = 60);
 
+// Text from a file as a quoted, escaped JSON string of at most about
+// `maxChars` characters: control characters never reach a message.
+std::string quotedText(const std::string& text, std::size_t maxChars = 60);
+
+// `path` extended by object key `key`: "path.key" for plain keys (letters,
+// digits, '_'), else path["escaped key"] (shortened), so that a key path is
+// one line whatever the key.
+std::string withKey(const std::string& path, const std::string& key);
+
 }  // namespace rodmesh

@@ -8,6 +8,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <cstdint>
 #include <fstream>
@@ -38,10 +39,10 @@ struct Node {
     if (!j->is_object()) fail("expected an object with key \"" + std::string(key) + "\", got " + typeName());
     auto it = j->find(key);
     if (it == j->end()) {
-      Node missing{j, path.empty() ? key : path + "." + key, file};
+      Node missing{j, withKey(path, key), file};
       missing.fail("missing required key");
     }
-    return Node{&*it, path.empty() ? key : path + "." + key, file};
+    return Node{&*it, withKey(path, key), file};
   }
   Node at(std::size_t i) const { return Node{&(*j)[i], path + "[" + std::to_string(i) + "]", file}; }
   std::size_t arraySize() const {
@@ -99,7 +100,7 @@ void warnUnknownKeys(const Node& n, std::initializer_list<const char*> known) {
   std::set<std::string> k(known.begin(), known.end());
   for (auto it = n.j->begin(); it != n.j->end(); ++it)
     if (!k.count(it.key()))
-      g_warnings.push_back(*n.file + ": " + (n.path.empty() ? "" : n.path + ".") + it.key() + ": unknown key ignored");
+      g_warnings.push_back(*n.file + ": " + withKey(n.path, it.key()) + ": unknown key ignored");
 }
 
 std::vector<Vec3> readVec3List(const Node& n, std::size_t expected, const char* what) {
@@ -122,6 +123,21 @@ void readRadiusPair(const Node& n, Vec2& r) {
 
 const std::vector<std::string>& lastSceneWarnings() { return g_warnings; }
 
+std::string printableText(const std::string& text, std::size_t limit) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size() && i < limit; ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    } else {
+      out.push_back(static_cast<char>(c));
+    }
+  }
+  return text.size() > limit ? out + "..." : out;
+}
+
 Scene parseScene(const std::string& text, const std::string& path) {
   g_warnings.clear();
   // Syntax errors, numbers beyond the double range and absurd nesting are
@@ -139,7 +155,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
   {
     Node f = root["format"];
     std::string v = f.string();
-    if (v != "rodmesh-scene/1") f.fail("unsupported format \"" + v + "\" (expected \"rodmesh-scene/1\")");
+    if (v != "rodmesh-scene/1") f.fail("unsupported format " + quotedText(v) + " (expected \"rodmesh-scene/1\")");
   }
 
   // Material.
@@ -264,7 +280,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
       for (int k = 0; k < kEffectCount; ++k)
         if (name == effectName(static_cast<Effect>(k))) { list.push_back(static_cast<Effect>(k)); found = true; }
       if (!found)
-        ef.at(i).fail("unknown effect \"" + name + "\" (expected one of stretch, bend, twist, connections, gravity)");
+        ef.at(i).fail("unknown effect " + quotedText(name) + " (expected one of stretch, bend, twist, connections, gravity)");
     }
     bool hasStretch = false, hasGravity = false;
     for (Effect e : list) { hasStretch |= e == Effect::Stretch; hasGravity |= e == Effect::Gravity; }
@@ -289,12 +305,12 @@ Scene parseScene(const std::string& text, const std::string& path) {
       Pose pose;
       pose.name = pn.has("name") ? pn["name"].string() : "pose" + std::to_string(p);
       if (pose.name.empty() || pose.name.find('/') != std::string::npos || pose.name == "." || pose.name == "..")
-        pn["name"].fail("pose name must be non-empty and contain no '/', got \"" + pose.name + "\"");
+        pn["name"].fail("pose name must be non-empty and contain no '/', got " + quotedText(pose.name));
       if (!names.emplace(pose.name, p).second) {
         const std::string other = "poses[" + std::to_string(names[pose.name]) + "]";
         if (!pn.has("name"))
-          pn.fail("this pose has no \"name\", and its default name \"" + pose.name + "\" is already used by " + other);
-        pn["name"].fail("duplicate pose name \"" + pose.name + "\" (also " + other + ")");
+          pn.fail("this pose has no \"name\", and its default name " + quotedText(pose.name) + " is already used by " + other);
+        pn["name"].fail("duplicate pose name " + quotedText(pose.name) + " (also " + other + ")");
       }
       if (pn.has("weight")) {
         Node w = pn["weight"];
@@ -373,7 +389,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
         std::string p = ps.at(i).string();
         if (p == "radii") s.design.radii = true;
         else if (p == "rest_shape") s.design.restShape = true;
-        else ps.at(i).fail("unknown design parameter \"" + p + "\" (expected radii or rest_shape)");
+        else ps.at(i).fail("unknown design parameter " + quotedText(p) + " (expected radii or rest_shape)");
       }
     }
     if (d.has("radius_bounds")) {
@@ -436,8 +452,8 @@ void validateForOptimize(const Scene& s) {
     const Pose& pose = s.poses[p];
     const std::string at = "poses[" + std::to_string(p) + "]";
     if (pose.target.empty())
-      fail(at + ".target", "missing; optimize needs a target for every pose, got pose " + std::to_string(p) + " \"" +
-                               pose.name + "\" without one");
+      fail(at + ".target", "missing; optimize needs a target for every pose, got pose " + std::to_string(p) + " " +
+                               quotedText(pose.name) + " without one");
     if (pose.target.size() != s.vertices.size())
       fail(at + ".target", "expected " + std::to_string(s.vertices.size()) +
                                " target positions (one per vertex), got " + std::to_string(pose.target.size()));

@@ -16,6 +16,11 @@ class InputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Text from an input file as shown in a message or a report: control
+// characters (newlines, terminal escapes) as \xNN, so that a message stays one
+// line; at most `limit` bytes, then "...".
+std::string printableText(const std::string& text, std::size_t limit = std::string::npos);
+
 // Parses `text` as the scene stored in `path` (path is used in messages only).
 // Throws InputError on any violation of the contract.
 Scene parseScene(const std::string& text, const std::string& path);

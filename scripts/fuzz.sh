@@ -35,7 +35,7 @@ nice cmake --build "$build" -j1 --target fuzz_scene fuzz_surface fuzz_archive ma
 seeds="$build/seeds"
 rm -rf "$seeds"
 mkdir -p "$seeds/scene" "$seeds/surface" "$seeds/archive"
-cp examples/*.json tests/cli/*.json "$seeds/scene/"
+for f in examples/*.json tests/cli/*.json; do cp "$f" "$seeds/scene/$(echo "$f" | tr / _)"; done
 cp examples/surfaces/*.obj "$seeds/surface/"
 printf 'OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n' >"$seeds/surface/square.off"
 printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' >"$seeds/surface/triangle.ply"
@@ -46,7 +46,7 @@ printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty floa
 "$build/fuzz/make_seed_archives" "$seeds/archive" examples/cantilever.json tests/cli/bent_3d.json \
   tests/cli/optimize_small.json >/dev/null
 for t in scene surface archive; do
-  if [ -d "fuzz/regressions/$t" ]; then cp fuzz/regressions/$t/* "$seeds/$t/" 2>/dev/null || true; fi
+  if [ -d "fuzz/regressions/$t" ]; then cp "fuzz/regressions/$t/"* "$seeds/$t/"; fi
 done
 
 summary=()

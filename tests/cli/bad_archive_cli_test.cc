@@ -72,6 +72,7 @@ const std::vector<Damage> kDamage = {
     {"huge_twist", "/poses/large/twist: declares 2147483647 values", {}},
     {"huge_string", "/scene: declares 2147483646-byte strings", {}},
     {"nan_pose", "/poses/large/positions: entry [2][1] is not finite", {"nan"}},
+    {"nan_pose_named_with_escapes", "/poses/lar\\x0age\\x1b[2J/positions: entry [2][1] is not finite", {}},
     {"inf_rest", "/rest/positions: entry [0][0] is not finite", {"inf"}},
     {"negative_radius", "/design/radii: entry [3][1]", {"positive", "-0.001"}},
     {"nan_residual_converged", "/poses/large attribute residual_norm: is not finite", {"nan"}},

@@ -73,6 +73,8 @@ DAMAGE = {
     "huge_string": lambda f: (f.__delitem__("scene"), f.create_dataset("scene", shape=(), dtype=h5py.string_dtype("utf-8", 2**31 - 2))),
     # bad values
     "nan_pose": lambda f: f["poses/large/positions"].__setitem__((2, 1), np.nan),
+    "nan_pose_named_with_escapes": lambda f: (f["poses/large/positions"].__setitem__((2, 1), np.nan),
+                                              f["poses"].move("large", "lar\nge\x1b[2J")),
     "inf_rest": lambda f: f["rest/positions"].__setitem__((0, 0), np.inf),
     "negative_radius": lambda f: f["design/radii"].__setitem__((3, 1), -1e-3),
     "nan_residual_converged": lambda f: f["poses/large"].attrs.__setitem__("residual_norm", np.nan),

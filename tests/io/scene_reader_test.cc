@@ -370,6 +370,26 @@ TEST(SceneReaderErrors, LargeValuesAreShownShortened) {
   EXPECT_LT(msg.size(), 300u) << msg;
 }
 
+TEST(SceneReaderErrors, NamesAndKeysWithControlCharactersKeepMessagesOnOneLine) {
+  // Found by fuzz_scene: keys and names are quoted and escaped in key paths,
+  // messages and warnings.
+  const std::string syntax = errorOf(std::string("{\"design\": {\"a\\nb\": ]}}"));
+  EXPECT_TRUE(contains(syntax, "in design[\"a\\nb\"]")) << syntax;
+  EXPECT_EQ(syntax.find('\n'), std::string::npos) << syntax;
+  json j = baseScene();
+  j["poses"].push_back(j["poses"][0]);
+  j["poses"][0]["name"] = j["poses"][1]["name"] = "two\nlines";
+  expectMessage(errorOf(j), "poses[1].name", {"duplicate pose name \"two\\nlines\""});
+  json k = baseScene();
+  k["effects"] = json::array({"stretch", "be\x1b[2Jnd"});
+  expectMessage(errorOf(k), "effects[1]", {"unknown effect \"be\\u001b[2Jnd\""});
+  json w = baseScene();
+  w["material"]["odd\nkey"] = 1;
+  parseScene(w.dump(), kFile);
+  ASSERT_EQ(lastSceneWarnings().size(), 1u);
+  EXPECT_EQ(lastSceneWarnings()[0], std::string(kFile) + ": material[\"odd\\nkey\"]: unknown key ignored");
+}
+
 TEST(SceneReaderErrors, DefaultPoseNameCollisionNamesBothPoses) {
   json j = baseScene();
   j["poses"].push_back(json::parse(R"({"fixed": [{"vertex": 0}]})"));  // default name pose1
