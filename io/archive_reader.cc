@@ -10,7 +10,9 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -21,10 +23,19 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <limits>
 #include <set>
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define RODMESH_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
+#define RODMESH_SANITIZED 1
+#endif
+#endif
 
 namespace rodmesh {
 namespace {
@@ -259,6 +270,22 @@ class Reader {
     std::vector<std::string> names;
     bool tooMany = false;
   };
+
+  // Memory manager for variable-length data: allocations within `left` bytes.
+  struct VlenBudget {
+    std::uint64_t left;
+    bool refused = false;
+    static void* allocate(std::size_t size, void* info) {
+      VlenBudget* b = static_cast<VlenBudget*>(info);
+      if (size > b->left) {
+        b->refused = true;
+        return nullptr;
+      }
+      b->left -= size;
+      return std::malloc(size);
+    }
+    static void release(void* p, void*) { std::free(p); }
+  };
   static herr_t collect(hid_t, const char* name, const H5L_info_t*, void* data) {
     Collect* c = static_cast<Collect*>(data);
     if (c->names.size() >= kMaxGroupMembers) {
@@ -360,12 +387,21 @@ class Reader {
     if (variable > 0) {
       Hid mem(h5::stringType(), H5Tclose);
       std::vector<char*> ptrs(static_cast<std::size_t>(n), nullptr);
+      // Strings of a dataset are allocated within the budget: a corrupted
+      // length fails the read instead of allocating gigabytes. (Attribute
+      // reads take no transfer properties; their strings are short.)
+      VlenBudget vb{budget_ - used_};
+      Hid dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose);
+      H5Pset_vlen_mem_manager(dxpl, &VlenBudget::allocate, &vb, &VlenBudget::release, nullptr);
       const herr_t r = n == 0 ? 0
                        : isAttr ? H5Aread(obj, mem, ptrs.data())
-                                : H5Dread(obj, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data());
-      if (r < 0) fail(what, "cannot be read (corrupted string data)");
+                                : H5Dread(obj, mem, H5S_ALL, H5S_ALL, dxpl, ptrs.data());
+      if (r < 0)
+        fail(what, vb.refused ? "declares strings longer than a file of this size can hold"
+                              : "cannot be read (corrupted string data)");
       for (char* p : ptrs) out.emplace_back(p ? p : "");
-      if (n > 0) H5Dvlen_reclaim(mem, space, H5P_DEFAULT, ptrs.data());
+      if (n > 0) H5Dvlen_reclaim(mem, space, isAttr ? H5P_DEFAULT : hid_t(dxpl), ptrs.data());
+      chargeBytes(what, budget_ - used_ - vb.left, "strings");
       return out;
     }
     // Fixed length: one byte more than stored per string, so that a
@@ -559,6 +595,68 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
   return a;
 }
 
+// ---- global heaps
+//
+// HDF5 1.10 keeps variable-length strings (every string attribute, /scene)
+// in "global heap collections" and trusts their object sizes: a corrupted
+// size makes it loop for ever while loading the collection, or copy past its
+// buffers. These collections are checked here, on the file's bytes, before
+// the library sees them: signature "GCOL", version 1, the collection size,
+// then objects (2-byte index, 2-byte reference count, 4 reserved bytes, the
+// object size, the data padded to 8 bytes; index 0 is the free space), each
+// of which must lie within its collection and the collection within the file.
+// Only files whose superblock declares 8-byte lengths (what HDF5 writes by
+// default) are checked.
+
+std::uint64_t le(const unsigned char* p, int bytes) {
+  std::uint64_t v = 0;
+  for (int k = bytes - 1; k >= 0; --k) v = (v << 8) | p[k];
+  return v;
+}
+
+// An empty string when every collection is sound, else what is wrong.
+std::string globalHeapProblem(const unsigned char* data, std::size_t n) {
+  static const unsigned char kSuperblock[8] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};
+  if (n < 16 || std::memcmp(data, kSuperblock, 8) != 0) return "";
+  const unsigned version = data[8];
+  const unsigned lengthSize = version <= 1 ? (n > 14 ? data[14] : 0) : data[10];
+  if (lengthSize != 8) return "";
+  static const unsigned char kSignature[5] = {'G', 'C', 'O', 'L', 1};
+  const unsigned char* end = data + n;
+  for (const unsigned char* at = data; at + 5 <= end;) {
+    const void* hit = memmem(at, static_cast<std::size_t>(end - at), kSignature, sizeof kSignature);
+    if (!hit) break;
+    const unsigned char* heap = static_cast<const unsigned char*>(hit);
+    at = heap + 1;
+    const std::size_t offset = static_cast<std::size_t>(heap - data);
+    const auto problem = [&](const std::string& what) {
+      return "the global heap collection at byte " + std::to_string(offset) + " (variable-length strings) " + what;
+    };
+    if (end - heap < 16) return problem("is cut off by the end of the file");
+    const std::uint64_t size = le(heap + 8, 8);
+    if (size < 16 || size > static_cast<std::uint64_t>(end - heap))
+      return problem("declares " + std::to_string(size) + " bytes; " + std::to_string(end - heap) +
+                     " remain in the file");
+    const unsigned char* stop = heap + size;
+    for (const unsigned char* p = heap + 16; p + 16 <= stop;) {
+      const unsigned index = static_cast<unsigned>(le(p, 2));
+      const std::uint64_t objectSize = le(p + 8, 8);
+      const std::uint64_t room = static_cast<std::uint64_t>(stop - p);
+      // What the library steps over: header and padded data, or for the free
+      // space (index 0) its size as given.
+      std::uint64_t need = objectSize;
+      if (index > 0 && (objectSize > room || (need = 16 + ((objectSize + 7) / 8) * 8) > room))
+        return problem("holds object " + std::to_string(index) + " of " + std::to_string(objectSize) +
+                       " bytes at byte " + std::to_string(p - data) + ", which does not fit the collection");
+      if (index == 0 && (need < 16 || need > room))
+        return problem("has free space of " + std::to_string(objectSize) + " bytes at byte " +
+                       std::to_string(p - data) + ", which does not fit the collection");
+      p += need;
+    }
+  }
+  return "";
+}
+
 // File access for reading: objects left open are closed with the file.
 hid_t readAccess() {
   hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
@@ -570,6 +668,19 @@ hid_t readAccess() {
 
 namespace {
 
+// globalHeapProblem on the bytes of the file `path` (mapped, not copied).
+void checkGlobalHeaps(const std::string& path, std::size_t size) {
+  if (size == 0) return;
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw InputError(path + ": cannot open archive (" + std::strerror(errno) + ")");
+  void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+  ::close(fd);
+  if (map == MAP_FAILED) return;  // left to the library
+  const std::string problem = globalHeapProblem(static_cast<const unsigned char*>(map), size);
+  ::munmap(map, size);
+  if (!problem.empty()) throw InputError(path + ": " + problem + ": a corrupted file");
+}
+
 Archive readFile(const std::string& path, const Progress& progress) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   struct stat st;
@@ -578,6 +689,7 @@ Archive readFile(const std::string& path, const Progress& progress) {
   if (access(path.c_str(), R_OK) != 0) throw InputError(path + ": cannot open archive (" + std::strerror(errno) + ")");
   if (progress) progress("", static_cast<std::uint64_t>(st.st_size));
   if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path + ": not an HDF5 file (not a rodmesh archive)");
+  checkGlobalHeaps(path, static_cast<std::size_t>(st.st_size));
   Hid fapl(readAccess(), H5Pclose);
   Hid file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose);
   if (file < 0) throw InputError(path + ": cannot open archive (corrupted or truncated HDF5 file)");
@@ -634,6 +746,20 @@ bool receive(int fd, char* p, std::size_t n, std::chrono::steady_clock::time_poi
   return true;
 }
 
+// The child's heap: enough for the archive twice over (read, then rebuilt in
+// memory) and HDF5's caches, but not the gigabytes a corrupted length can make
+// the library allocate. Not under the sanitizers, whose allocators map far
+// more than they hand out.
+void limitChildMemory(std::uint64_t fileBytes) {
+#ifdef RODMESH_SANITIZED
+  (void)fileBytes;
+#else
+  const std::uint64_t bytes = (std::uint64_t(1) << 30) + 32 * fileBytes;
+  const rlimit limit{static_cast<rlim_t>(bytes), static_cast<rlim_t>(bytes)};
+  ::setrlimit(RLIMIT_DATA, &limit);
+#endif
+}
+
 std::chrono::steady_clock::time_point deadlineFor(std::uint64_t bytes) {
   const double seconds = kBaseSeconds + static_cast<double>(bytes) / kBytesPerSecond;
   return std::chrono::steady_clock::now() +
@@ -645,6 +771,8 @@ std::chrono::steady_clock::time_point deadlineFor(std::uint64_t bytes) {
 Archive readArchive(const std::string& path) { return readFile(path, Progress()); }
 
 Archive readArchiveIsolated(const std::string& path) {
+  struct stat st;
+  const std::uint64_t fileBytes = ::stat(path.c_str(), &st) == 0 ? static_cast<std::uint64_t>(st.st_size) : 0;
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) return readArchive(path);
   std::fflush(stdout);
@@ -660,6 +788,7 @@ Archive readArchiveIsolated(const std::string& path) {
     // without running the parent's exit handlers or flushing its buffers.
     ::close(fds[0]);
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    limitChildMemory(fileBytes);
     const int out = fds[1];
     try {
       const Archive a = readFile(path, [out](const std::string& object, std::uint64_t bytes) {
@@ -734,6 +863,8 @@ Archive readArchiveImage(const void* data, std::size_t size, const std::string& 
   H5Pset_fapl_core(fapl, 1 << 16, 0);
   if (size == 0 || H5Pset_file_image(fapl, const_cast<void*>(data), size) < 0)
     throw InputError(name + ": not an HDF5 file (not a rodmesh archive)");
+  const std::string problem = globalHeapProblem(static_cast<const unsigned char*>(data), size);
+  if (!problem.empty()) throw InputError(name + ": " + problem + ": a corrupted file");
   Hid file(H5Fopen(h5::kMemoryFileName, H5F_ACC_RDONLY, fapl), H5Fclose);
   if (file < 0) throw InputError(name + ": cannot open archive (not an HDF5 file, or corrupted or truncated)");
   return readOpenFile(file, name, size, Progress());

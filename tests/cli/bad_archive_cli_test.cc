@@ -89,6 +89,8 @@ const std::vector<Damage> kDamage = {
     {"frames_two_columns", "/frames/small/positions: has shape 6 x 6 x 2", {}},
     {"frames_time_backwards", "/frames/small/time: entry [1] = -1", {}},
     {"frames_unknown_pose", "/frames/nope: names no pose", {}},
+    {"heap_object_huge", "bad.h5: the global heap collection at byte", {"1099511627776 bytes", "does not fit"}},
+    {"heap_free_space_zero", "bad.h5: the global heap collection at byte", {"free space of 0 bytes"}},
     {"truncated_half", "bad.h5: cannot open archive", {"truncated"}},
     {"truncated_header", "bad.h5: ", {}},
     {"empty", "bad.h5: not an HDF5 file", {}},

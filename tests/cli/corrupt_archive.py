@@ -103,8 +103,23 @@ DAMAGE = {
     "frames_unknown_pose": lambda f: f["frames"].move("small", "nope"),
 }
 
+def global_heap(data, edit):
+    """Edits the first object of the first global heap collection (variable-length strings)."""
+    at = data.index(b"GCOL\x01")
+    b = bytearray(data)
+    edit(b, at + 16)  # the first object's header: index, references, reserved, size
+    return bytes(b)
+
+
+def set_size(b, at, value):
+    b[at + 8 : at + 16] = value.to_bytes(8, "little")
+
+
 # Damage to the bytes rather than the structure.
 BYTES = {
+    # HDF5 1.10 reads past its buffer, or loops for ever, on these.
+    "heap_object_huge": lambda b: global_heap(b, lambda h, at: set_size(h, at, 2**40)),
+    "heap_free_space_zero": lambda b: global_heap(b, lambda h, at: (h.__setitem__(slice(at, at + 2), b"\0\0"), set_size(h, at, 0))),
     "truncated_half": lambda b: b[: len(b) // 2],
     "truncated_header": lambda b: b[:100],
     "empty": lambda b: b"",
