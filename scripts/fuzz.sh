@@ -7,7 +7,7 @@
 # UndefinedBehaviorSanitizer into build-fuzz/, seeds each corpus from
 # examples/, tests/ and fuzz/regressions/, runs the targets one after the
 # other (nice'd, one process each) and prints executions and findings per
-# target. Findings are left in build-fuzz/findings/TARGET/; once understood
+# target. Findings of the last run are in build-fuzz/findings/TARGET/; once understood
 # and fixed, copy them to fuzz/regressions/TARGET/ (tests/io/fuzz_regression_test.cc
 # and tests/meshing/surface_fuzz_regression_test.cc run them through the
 # normal readers in the default test suite).
@@ -56,6 +56,7 @@ for t in "${targets[@]}"; do
   corpus="$build/corpus/$t"
   findings="$build/findings/$t"
   log="$build/fuzz_$t.log"
+  rm -rf "$findings"  # the summary counts this run's findings; the corpus grows from run to run
   mkdir -p "$corpus" "$findings"
   extra=()
   [ "$t" = scene ] && extra+=(-dict=fuzz/scene.dict)
