@@ -23,12 +23,13 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
     // Text from the archive is printed with control characters (terminal
     // escapes included) shown as \xNN.
     std::printf("archive   %s\n", printableText(*path).c_str());
-    std::printf("format    %s (written by rodmesh %s)\n", printableText(a.format).c_str(), printableText(a.version).c_str());
+    std::printf("format    %s (written by rodmesh %s)\n", printableText(a.format).c_str(),
+                printableText(a.version).c_str());
     std::printf("command   %s\n", printableText(a.command).c_str());
     std::printf("status    %s\n", printableText(a.status).c_str());
     if (a.optimize) {
-      std::printf("optimize  method %s, %lld iterations in %s\n", printableText(a.optimize->method).c_str(), a.optimize->iterations,
-                  formatSeconds(a.optimize->timeSeconds).c_str());
+      std::printf("optimize  method %s, %lld iterations in %s\n", printableText(a.optimize->method).c_str(),
+                  a.optimize->iterations, formatSeconds(a.optimize->timeSeconds).c_str());
       if (!a.optimize->message.empty()) std::printf("          %s\n", printableText(a.optimize->message).c_str());
     }
     std::printf("model     %lld vertices, %lld edges, %lld rods, %lld connections, %lld unknowns per pose%s\n",

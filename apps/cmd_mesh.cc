@@ -78,21 +78,20 @@ constexpr double kMinScale = 1e-6, kMaxScale = 1e6;
 // Flags whose values are real numbers: each must be finite
 // (requireFiniteNumbers), and what each allows (checked in full by
 // validateOptions / validateGridOptions).
-const std::vector<RealFlag> kRealFlags = {
-    {"--scale", "[1e-06, 1e+06]"},
-    {"--refinement", "[1, 20] edges per cell radius"},
-    {"--tolerance", "[0, 1] x cell radius"},
-    {"--merge", "[0, 1] x median Voronoi edge"},
-    {"--edge-length", "(0, 100] m"},
-    {"--young-modulus", "(0, 1e+13] Pa"},
-    {"--poisson-ratio", "(-1, 0.5)"},
-    {"--material-density", "(0, 1e+05] kg/m^3"},
-    {"--radius", "(0, 100] m"},
-    {"--radius-bounds", "0 < MIN <= MAX <= 100 m"},
-    {"--gravity", "[-1e+04, 1e+04] m/s^2 per component"},
-    {"--fix-box", "finite coordinates in metres"},
-    {"--size", "[1e-06, 1e+06] m"},
-    {"--pull", "finite forces in newtons"}};
+const std::vector<RealFlag> kRealFlags = {{"--scale", "[1e-06, 1e+06]"},
+                                          {"--refinement", "[1, 20] edges per cell radius"},
+                                          {"--tolerance", "[0, 1] x cell radius"},
+                                          {"--merge", "[0, 1] x median Voronoi edge"},
+                                          {"--edge-length", "(0, 100] m"},
+                                          {"--young-modulus", "(0, 1e+13] Pa"},
+                                          {"--poisson-ratio", "(-1, 0.5)"},
+                                          {"--material-density", "(0, 1e+05] kg/m^3"},
+                                          {"--radius", "(0, 100] m"},
+                                          {"--radius-bounds", "0 < MIN <= MAX <= 100 m"},
+                                          {"--gravity", "[-1e+04, 1e+04] m/s^2 per component"},
+                                          {"--fix-box", "finite coordinates in metres"},
+                                          {"--size", "[1e-06, 1e+06] m"},
+                                          {"--pull", "finite forces in newtons"}};
 
 std::string fmt(double v) {
   std::ostringstream o;

@@ -24,7 +24,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     // A valid archive is written back and read back alike.
     const std::string image = writeArchiveImage(a);
     const Archive b = readArchiveImage(image.data(), image.size(), file);
-    fuzz::require(b.poses.size() == a.poses.size() && b.restPositions == a.restPositions, "the archive changes on a round trip");
+    fuzz::require(b.poses.size() == a.poses.size() && b.restPositions == a.restPositions,
+                  "the archive changes on a round trip");
   } catch (const InputError& e) {
     fuzz::checkMessage(e.what(), file);
   }

@@ -37,9 +37,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     std::fprintf(stderr, "%s\n", e.what());
     fuzz::require(false, "a scene written by sceneToJson is rejected");
   }
-  fuzz::require(t.vertices.size() == s.vertices.size() && t.rods.size() == s.rods.size() &&
-                    t.poses.size() == s.poses.size(),
-                "sceneToJson changes the scene");
+  fuzz::require(
+      t.vertices.size() == s.vertices.size() && t.rods.size() == s.rods.size() && t.poses.size() == s.poses.size(),
+      "sceneToJson changes the scene");
   // Everything the model relies on was checked by the reader.
   const RodNetwork net(s);
   fuzz::require(net.numVertices() == static_cast<int>(s.vertices.size()), "the network lost vertices");

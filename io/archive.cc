@@ -223,8 +223,7 @@ void writeContents(const Archive& a, hid_t file) {
     writeDoubles(h, "rms_error", hs.rmsError.data(), {(hsize_t)hs.rmsError.size()});
     if (!hs.level.empty()) writeInts<long long>(h, "level", hs.level, H5T_STD_I64LE, H5T_NATIVE_LLONG);
     if (!hs.constraintViolation.empty())
-      writeDoubles(h, "constraint_violation", hs.constraintViolation.data(),
-                   {(hsize_t)hs.constraintViolation.size()});
+      writeDoubles(h, "constraint_violation", hs.constraintViolation.data(), {(hsize_t)hs.constraintViolation.size()});
     if (!hs.gradientNorm.empty())
       writeDoubles(h, "gradient_norm", hs.gradientNorm.data(), {(hsize_t)hs.gradientNorm.size()});
     if (!hs.phase.empty()) writeStrings(h, "phase", hs.phase);
@@ -364,8 +363,7 @@ std::string writeArchiveImage(const Archive& a) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   check(H5Pset_fapl_core(fapl, 1 << 20, 0), "an archive in memory");
-  Hid file(checkId(H5Fcreate(h5::kMemoryFileName, H5F_ACC_TRUNC, H5P_DEFAULT, fapl), "an archive in memory"),
-           H5Fclose);
+  Hid file(checkId(H5Fcreate(h5::kMemoryFileName, H5F_ACC_TRUNC, H5P_DEFAULT, fapl), "an archive in memory"), H5Fclose);
   writeContents(a, file);
   check(H5Fflush(file, H5F_SCOPE_GLOBAL), "an archive in memory");
   const ssize_t size = H5Fget_file_image(file, nullptr, 0);

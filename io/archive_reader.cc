@@ -66,17 +66,28 @@ constexpr long long kAny = -1;
 
 const char* className(H5T_class_t c) {
   switch (c) {
-    case H5T_INTEGER: return "integers";
-    case H5T_FLOAT: return "floating-point numbers";
-    case H5T_STRING: return "strings";
-    case H5T_BITFIELD: return "bit fields";
-    case H5T_OPAQUE: return "opaque data";
-    case H5T_COMPOUND: return "compound records";
-    case H5T_REFERENCE: return "references";
-    case H5T_ENUM: return "enumerations";
-    case H5T_VLEN: return "variable-length sequences";
-    case H5T_ARRAY: return "arrays";
-    default: return "data of an unknown type";
+    case H5T_INTEGER:
+      return "integers";
+    case H5T_FLOAT:
+      return "floating-point numbers";
+    case H5T_STRING:
+      return "strings";
+    case H5T_BITFIELD:
+      return "bit fields";
+    case H5T_OPAQUE:
+      return "opaque data";
+    case H5T_COMPOUND:
+      return "compound records";
+    case H5T_REFERENCE:
+      return "references";
+    case H5T_ENUM:
+      return "enumerations";
+    case H5T_VLEN:
+      return "variable-length sequences";
+    case H5T_ARRAY:
+      return "arrays";
+    default:
+      return "data of an unknown type";
   }
 }
 
@@ -133,7 +144,10 @@ class Reader {
     const H5I_type_t t = H5Iget_type(id);
     if (t != kind) {
       H5Oclose(id);
-      fail(path, std::string("is a ") + (t == H5I_GROUP ? "group" : t == H5I_DATASET ? "dataset" : "named datatype") +
+      fail(path, std::string("is a ") +
+                     (t == H5I_GROUP     ? "group"
+                      : t == H5I_DATASET ? "dataset"
+                                         : "named datatype") +
                      ", expected a " + wanted);
     }
     return id;
@@ -200,9 +214,9 @@ class Reader {
     if (!v) return std::nullopt;
     std::vector<T> out;
     out.reserve(v->size());
-    for (std::size_t i = 0; i < v->size(); ++i) out.push_back(static_cast<T>(wholeNumber((*v)[i], lo, hi, [&] {
-      return join(locPath, name) + "[" + std::to_string(i) + "]";
-    })));
+    for (std::size_t i = 0; i < v->size(); ++i)
+      out.push_back(static_cast<T>(
+          wholeNumber((*v)[i], lo, hi, [&] { return join(locPath, name) + "[" + std::to_string(i) + "]"; })));
     return out;
   }
 
@@ -296,9 +310,7 @@ class Reader {
     return 0;
   }
 
-  static std::string attrName(const std::string& objPath, const char* name) {
-    return objPath + " attribute " + name;
-  }
+  static std::string attrName(const std::string& objPath, const char* name) { return objPath + " attribute " + name; }
 
   hid_t openAttr(hid_t obj, const std::string& objPath, const char* name, bool required) const {
     const std::string what = attrName(objPath, name);
@@ -356,16 +368,15 @@ class Reader {
     chargeBytes(what, bytes, std::to_string(values) + " values");
   }
   void chargeBytes(const std::string& what, std::uint64_t bytes, const std::string& declared) {
-    if (bytes > budget_ - used_)
-      fail(what, "declares " + declared + ", more than a file of this size can hold");
+    if (bytes > budget_ - used_) fail(what, "declares " + declared + ", more than a file of this size can hold");
     used_ += bytes;
   }
 
   template <class Where>
   long long wholeNumber(double v, long long lo, long long hi, Where where) const {
     if (!(v >= static_cast<double>(lo) && v <= static_cast<double>(hi)) || v != std::floor(v))
-      fail(where(), "expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
-                        num(v));
+      fail(where(),
+           "expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + num(v));
     return static_cast<long long>(v);
   }
 
@@ -393,7 +404,7 @@ class Reader {
       VlenBudget vb{budget_ - used_};
       Hid dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose);
       H5Pset_vlen_mem_manager(dxpl, &VlenBudget::allocate, &vb, &VlenBudget::release, nullptr);
-      const herr_t r = n == 0 ? 0
+      const herr_t r = n == 0   ? 0
                        : isAttr ? H5Aread(obj, mem, ptrs.data())
                                 : H5Dread(obj, mem, H5S_ALL, H5S_ALL, dxpl, ptrs.data());
       if (r < 0)
@@ -415,7 +426,7 @@ class Reader {
     std::string buf(static_cast<std::size_t>(bytes), '\0');
     Hid mem(H5Tcopy(H5T_C_S1), H5Tclose);
     H5Tset_size(mem, size + 1);
-    const herr_t r = n == 0 ? 0
+    const herr_t r = n == 0   ? 0
                      : isAttr ? H5Aread(obj, mem, buf.data())
                               : H5Dread(obj, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data());
     if (r < 0) fail(what, "cannot be read (corrupted string data)");
@@ -501,8 +512,8 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
       const auto af = r.numbers(cpg, cp, "arc_fraction", true, {kAny}, "C (one entry per control point)", &dims);
       c.arcFraction = *af;
       const long long n = static_cast<long long>(dims[0]);
-      const std::string per = std::to_string(n) + " (one entry per control point: " + cp + "/arc_fraction has " +
-                              std::to_string(n) + ")";
+      const std::string per =
+          std::to_string(n) + " (one entry per control point: " + cp + "/arc_fraction has " + std::to_string(n) + ")";
       c.rod = *r.integers<int>(cpg, cp, "rod", true, n, -1, kMaxCount, per);
       c.vertex = r.integers<int>(cpg, cp, "vertex", false, n, -1, kMaxCount, per).value_or(std::vector<int>());
       const std::string rows = " (one row per control point: " + cp + "/arc_fraction has " + std::to_string(n) + ")";
@@ -550,11 +561,10 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
         std::vector<hsize_t> dims;
         const std::vector<double> t = *r.numbers(g, gp, "time", true, {kAny}, "T (one time per frame)", &dims);
         const long long T = static_cast<long long>(dims[0]);
-        const std::vector<double> q =
-            *r.numbers(g, gp, "positions", true, {T, nv, 3},
-                       std::to_string(T) + " x " + std::to_string(nv) + " x 3 (frames x vertices x 3: " + gp +
-                           "/time has " + std::to_string(T) + " entries, /rest/positions " + std::to_string(nv) +
-                           " rows)");
+        const std::vector<double> q = *r.numbers(
+            g, gp, "positions", true, {T, nv, 3},
+            std::to_string(T) + " x " + std::to_string(nv) + " x 3 (frames x vertices x 3: " + gp + "/time has " +
+                std::to_string(T) + " entries, /rest/positions " + std::to_string(nv) + " rows)");
         f.time = Eigen::Map<const Eigen::VectorXd>(t.data(), T);
         const std::size_t stride = static_cast<std::size_t>(nv) * 3;
         for (long long k = 0; k < T; ++k) {
@@ -580,13 +590,14 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
           r.fail(hp + "/iteration[" + std::to_string(i) + "]", "expected a whole number >= 0, got " + num(v));
         h.iteration.push_back(static_cast<long long>(v));
       }
-      const std::string per = std::to_string(n) + " (one entry per iteration: /history/iteration has " +
-                              std::to_string(n) + ")";
+      const std::string per =
+          std::to_string(n) + " (one entry per iteration: /history/iteration has " + std::to_string(n) + ")";
       h.timeSeconds = *r.numbers(hg, hp, "time_s", true, {n}, per);
       h.objective = *r.numbers(hg, hp, "objective", true, {n}, per);
       h.rmsError = *r.numbers(hg, hp, "rms_error", true, {n}, per);
       h.level = r.integers<long long>(hg, hp, "level", false, n, 0, 1000, per).value_or(std::vector<long long>());
-      h.constraintViolation = r.numbers(hg, hp, "constraint_violation", false, {n}, per).value_or(std::vector<double>());
+      h.constraintViolation =
+          r.numbers(hg, hp, "constraint_violation", false, {n}, per).value_or(std::vector<double>());
       h.gradientNorm = r.numbers(hg, hp, "gradient_norm", false, {n}, per).value_or(std::vector<double>());
       h.phase = r.stringSeries(hg, hp, "phase", n, per).value_or(std::vector<std::string>());
       a.history = std::move(h);
@@ -702,8 +713,8 @@ Archive readFile(const std::string& path, const Progress& progress) {
 // payload. 'P': progress (8-byte data size, then the object's name); 'A': the
 // archive as rebuilt by writeArchiveImage; 'E': an InputError's message.
 
-constexpr double kBaseSeconds = 4.0;          // for any one HDF5 call
-constexpr double kBytesPerSecond = 10e6;      // plus this much time per byte it may produce
+constexpr double kBaseSeconds = 4.0;      // for any one HDF5 call
+constexpr double kBytesPerSecond = 10e6;  // plus this much time per byte it may produce
 
 void sendAll(int fd, const char* p, std::size_t n) {
   while (n > 0) {
@@ -729,7 +740,8 @@ void sendMessage(int fd, char type, const std::string& payload) {
 struct Timeout {};
 bool receive(int fd, char* p, std::size_t n, std::chrono::steady_clock::time_point deadline) {
   while (n > 0) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) throw Timeout();
     pollfd pfd{fd, POLLIN, 0};
     const int r = ::poll(&pfd, 1, static_cast<int>(std::min<long long>(left.count(), 60000)));
@@ -888,8 +900,8 @@ void validateArchive(const Archive& a, const Scene& scene, const std::string& pa
     for (Eigen::Index i = 0; i < r.rows(); ++i)
       for (int k = 0; k < 2; ++k)
         if (!(r(i, k) > 0))
-          fail(object, "entry [" + std::to_string(i) + "][" + std::to_string(k) + "] is a radius and must be positive, got " +
-                           num(r(i, k)));
+          fail(object, "entry [" + std::to_string(i) + "][" + std::to_string(k) +
+                           "] is a radius and must be positive, got " + num(r(i, k)));
   };
   auto finiteNumber = [&](double v, const std::string& object) {
     if (!std::isfinite(v)) fail(object, "is not finite, got " + num(v));
@@ -900,19 +912,19 @@ void validateArchive(const Archive& a, const Scene& scene, const std::string& pa
   if (sv != nv)
     fail("/rest/positions", "has " + std::to_string(nv) + " rows, but /scene has " + std::to_string(sv) + " vertices");
   if (a.nVertices != nv)
-    fail("/model attribute n_vertices", "is " + std::to_string(a.nVertices) + ", but /rest/positions has " +
-                                            std::to_string(nv) + " rows");
+    fail("/model attribute n_vertices",
+         "is " + std::to_string(a.nVertices) + ", but /rest/positions has " + std::to_string(nv) + " rows");
   long long edges = 0;
   for (const Rod& r : scene.rods) edges += static_cast<long long>(r.vertices.size()) - 1;
   if (a.nRods != static_cast<long long>(scene.rods.size()))
     fail("/model attribute n_rods",
          "is " + std::to_string(a.nRods) + ", but /scene has " + std::to_string(scene.rods.size()) + " rods");
   if (a.nEdges != edges)
-    fail("/model attribute n_edges", "is " + std::to_string(a.nEdges) + ", but the rods of /scene have " +
-                                         std::to_string(edges) + " edges");
+    fail("/model attribute n_edges",
+         "is " + std::to_string(a.nEdges) + ", but the rods of /scene have " + std::to_string(edges) + " edges");
   if (a.nConnections > nv)
-    fail("/model attribute n_connections", "is " + std::to_string(a.nConnections) + ", more than the " +
-                                               std::to_string(nv) + " vertices");
+    fail("/model attribute n_connections",
+         "is " + std::to_string(a.nConnections) + ", more than the " + std::to_string(nv) + " vertices");
 
   finite(a.restPositions.data(), nv, 3, "/rest/positions");
   positive(a.radii, "/design/radii");
@@ -949,23 +961,24 @@ void validateArchive(const Archive& a, const Scene& scene, const std::string& pa
       for (Eigen::Index i = 0; i < f.positions[k].rows(); ++i)
         for (int c = 0; c < 3; ++c)
           if (!std::isfinite(f.positions[k](i, c)))
-            fail(g + "/positions", "entry [" + std::to_string(k) + "][" + std::to_string(i) + "][" +
-                                       std::to_string(c) + "] is not finite, got " + num(f.positions[k](i, c)));
+            fail(g + "/positions", "entry [" + std::to_string(k) + "][" + std::to_string(i) + "][" + std::to_string(c) +
+                                       "] is not finite, got " + num(f.positions[k](i, c)));
   }
   if (a.controlPoints) {
     const ArchiveControlPoints& c = *a.controlPoints;
     const std::string cp = "/design/control_points";
     for (std::size_t i = 0; i < c.rod.size(); ++i)
       if (c.rod[i] >= a.nRods)
-        fail(cp + "/rod", "entry [" + std::to_string(i) + "] names rod " + std::to_string(c.rod[i]) + ", but there are " +
-                              std::to_string(a.nRods) + " rods");
+        fail(cp + "/rod", "entry [" + std::to_string(i) + "] names rod " + std::to_string(c.rod[i]) +
+                              ", but there are " + std::to_string(a.nRods) + " rods");
     for (std::size_t i = 0; i < c.vertex.size(); ++i)
       if (c.vertex[i] >= nv)
         fail(cp + "/vertex", "entry [" + std::to_string(i) + "] names vertex " + std::to_string(c.vertex[i]) +
                                  ", but there are " + std::to_string(nv) + " vertices");
     for (std::size_t i = 0; i < c.arcFraction.size(); ++i)
       if (!(c.arcFraction[i] >= 0 && c.arcFraction[i] <= 1))
-        fail(cp + "/arc_fraction", "entry [" + std::to_string(i) + "] must lie in [0, 1], got " + num(c.arcFraction[i]));
+        fail(cp + "/arc_fraction",
+             "entry [" + std::to_string(i) + "] must lie in [0, 1], got " + num(c.arcFraction[i]));
     if (c.radii.rows() > 0) positive(c.radii, cp + "/radii");
     finite(c.restDisplacement.data(), c.restDisplacement.rows(), 3, cp + "/rest_displacement");
   }

@@ -242,8 +242,8 @@ json parseJsonText(const std::string& text, const std::string& path) {
     // A number beyond the double range: name it and where it is.
     const std::size_t start = sax.position() >= sax.token().size() ? sax.position() - sax.token().size() : 0;
     throw InputError(path + ": " + (where.empty() ? std::string("<root>") : where) + ": number " +
-                     printableText(sax.token(), 40) + " is out of range (beyond +-1.8e308) (" + lineColumn(text, start) +
-                     ")");
+                     printableText(sax.token(), 40) + " is out of range (beyond +-1.8e308) (" +
+                     lineColumn(text, start) + ")");
   }
   // The parser reports the position after the character it stopped at.
   std::string what = parserMessage(sax.what());

@@ -99,8 +99,7 @@ void warnUnknownKeys(const Node& n, std::initializer_list<const char*> known) {
   if (!n.j->is_object()) return;
   std::set<std::string> k(known.begin(), known.end());
   for (auto it = n.j->begin(); it != n.j->end(); ++it)
-    if (!k.count(it.key()))
-      g_warnings.push_back(*n.file + ": " + withKey(n.path, it.key()) + ": unknown key ignored");
+    if (!k.count(it.key())) g_warnings.push_back(*n.file + ": " + withKey(n.path, it.key()) + ": unknown key ignored");
 }
 
 std::vector<Vec3> readVec3List(const Node& n, std::size_t expected, const char* what) {
@@ -280,13 +279,15 @@ Scene parseScene(const std::string& text, const std::string& path) {
       for (int k = 0; k < kEffectCount; ++k)
         if (name == effectName(static_cast<Effect>(k))) { list.push_back(static_cast<Effect>(k)); found = true; }
       if (!found)
-        ef.at(i).fail("unknown effect " + quotedText(name) + " (expected one of stretch, bend, twist, connections, gravity)");
+        ef.at(i).fail("unknown effect " + quotedText(name) +
+                      " (expected one of stretch, bend, twist, connections, gravity)");
     }
     bool hasStretch = false, hasGravity = false;
     for (Effect e : list) { hasStretch |= e == Effect::Stretch; hasGravity |= e == Effect::Gravity; }
     if (!hasStretch)
-      ef.fail("\"stretch\" cannot be left out: inextensible rods would need constraints this model does not have, got " +
-              ef.shortDump());
+      ef.fail(
+          "\"stretch\" cannot be left out: inextensible rods would need constraints this model does not have, got " +
+          ef.shortDump());
     if (hasGravity && !s.gravity)
       ef.fail("\"gravity\" is listed but the scene has no \"gravity\" vector, got " + ef.shortDump());
     s.effects = list;
@@ -309,7 +310,8 @@ Scene parseScene(const std::string& text, const std::string& path) {
       if (!names.emplace(pose.name, p).second) {
         const std::string other = "poses[" + std::to_string(names[pose.name]) + "]";
         if (!pn.has("name"))
-          pn.fail("this pose has no \"name\", and its default name " + quotedText(pose.name) + " is already used by " + other);
+          pn.fail("this pose has no \"name\", and its default name " + quotedText(pose.name) + " is already used by " +
+                  other);
         pn["name"].fail("duplicate pose name " + quotedText(pose.name) + " (also " + other + ")");
       }
       if (pn.has("weight")) {
@@ -389,7 +391,8 @@ Scene parseScene(const std::string& text, const std::string& path) {
         std::string p = ps.at(i).string();
         if (p == "radii") s.design.radii = true;
         else if (p == "rest_shape") s.design.restShape = true;
-        else ps.at(i).fail("unknown design parameter " + quotedText(p) + " (expected radii or rest_shape)");
+        else
+          ps.at(i).fail("unknown design parameter " + quotedText(p) + " (expected radii or rest_shape)");
       }
     }
     if (d.has("radius_bounds")) {
@@ -487,9 +490,7 @@ void validateForOptimize(const Scene& s) {
   }
 }
 
-Scene readSceneFile(const std::string& path) {
-  return parseScene(readInputFile(path, "scene file"), path);
-}
+Scene readSceneFile(const std::string& path) { return parseScene(readInputFile(path, "scene file"), path); }
 
 std::string readInputFile(const std::string& path, const std::string& what) {
   struct stat st;

@@ -117,7 +117,7 @@ class BadArchiveCli : public ::testing::Test {
     ASSERT_EQ(std::system((cd + " -q simulate cantilever.json -o c.h5 >/dev/null 2>&1").c_str()), 0);
     ASSERT_EQ(std::system((cd + " -q simulate cantilever.json -o d.h5 --dynamic --duration 0.05 --fps 100 "
                                 ">/dev/null 2>&1")
-                               .c_str()),
+                              .c_str()),
               0);
   }
   static void TearDownTestSuite() { std::system(("rm -rf " + shellQuote(sources_)).c_str()); }
@@ -136,8 +136,8 @@ class BadArchiveCli : public ::testing::Test {
 
   // Exit status of a shell command run in the working directory (124 on timeout); stderr in err_.
   int shell(const std::string& cmd) {
-    const std::string full = "cd " + shellQuote(dir_) + " && " + cmd + " >" + shellQuote(log_ + "/out") + " 2>" +
-                             shellQuote(log_ + "/err");
+    const std::string full =
+        "cd " + shellQuote(dir_) + " && " + cmd + " >" + shellQuote(log_ + "/out") + " 2>" + shellQuote(log_ + "/err");
     const int raw = std::system(full.c_str());
     err_ = readText(log_ + "/err");
     if (raw == -1 || !WIFEXITED(raw)) return -1;
@@ -158,7 +158,8 @@ class BadArchiveCli : public ::testing::Test {
       EXPECT_EQ(err_.rfind("rodmesh: error: ", 0), 0u) << err_;
       EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << "one line expected:\n" << err_;
       EXPECT_NE(err_.find("bad.h5"), std::string::npos) << err_;
-      for (const std::string& f : fragments) EXPECT_NE(err_.find(f), std::string::npos) << "'" << f << "' not in " << err_;
+      for (const std::string& f : fragments)
+        EXPECT_NE(err_.find(f), std::string::npos) << "'" << f << "' not in " << err_;
       EXPECT_EQ(clitest::listFiles(dir_), before) << "something was written";
     }
   }

@@ -34,8 +34,8 @@ const std::string kSourceDir = RODMESH_SOURCE_DIR;
 
 // A long run: the cantilever's motion over 200 s in steps of at most 1 ms
 // (several seconds of work), with one progress line per frame.
-const std::vector<std::string> kLongSimulate = {"simulate", "cantilever.json", "-o", "out.h5", "--dynamic",
-                                                "--duration", "200", "--max-step", "0.001"};
+const std::vector<std::string> kLongSimulate = {
+    "simulate", "cantilever.json", "-o", "out.h5", "--dynamic", "--duration", "200", "--max-step", "0.001"};
 const std::vector<std::string> kSimulate = {"simulate", "cantilever.json", "-o", "out.h5", "-q"};
 const std::vector<std::string> kOptimize = {"optimize", "optimize_small.json", "-o", "out.h5", "--method", "reduced"};
 
@@ -109,7 +109,9 @@ class InterruptCliTest : public ::testing::Test {
     }
     return false;
   }
-  bool waitForWrite(pid_t pid) const { return waitFor([&] { return writing(pid); }); }
+  bool waitForWrite(pid_t pid) const {
+    return waitFor([&] { return writing(pid); });
+  }
   bool waitForStderr(const std::string& text) const {
     return waitFor([&] { return clitest::readText(log_).find(text) != std::string::npos; });
   }
