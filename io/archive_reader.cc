@@ -801,6 +801,11 @@ Archive readArchiveIsolated(const std::string& path) {
     ::close(fds[0]);
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
     limitChildMemory(fileBytes);
+    // Everything the child has to say goes through the pipe: whatever the
+    // library (or a sanitizer's crash report) prints must not reach the
+    // user, whose error is one line.
+    const int devNull = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (devNull >= 0) ::dup2(devNull, 2);
     const int out = fds[1];
     try {
       const Archive a = readFile(path, [out](const std::string& object, std::uint64_t bytes) {
