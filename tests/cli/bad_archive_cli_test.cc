@@ -179,6 +179,15 @@ TEST_F(BadArchiveCli, TheUndamagedArchivesAreAccepted) {
     EXPECT_EQ(shell(shellQuote(kExe) + " -q export ok.h5 -o all.pvd --all-poses"), 0) << err_;
     EXPECT_EQ(shell(shellQuote(kExe) + " -q export ok.h5 --xdmf -o ok.xmf"), 0) << err_;
   }
+  // A failed pose may report a residual it could not compute (nan): still an archive.
+  ASSERT_EQ(shell(kPython + " " + shellQuote(kSourceDir + "/tests/cli/corrupt_archive.py") +
+                  " failed_pose_nan_residual " + shellQuote(sources_ + "/c.h5") + " failed.h5"),
+            0)
+      << err_;
+  EXPECT_EQ(shell(shellQuote(kExe) + " inspect failed.h5"), 0) << err_;
+  const std::string out = readText(log_ + "/out");
+  EXPECT_NE(out.find("status    failed"), std::string::npos) << out;
+  EXPECT_NE(out.find("residual nan N"), std::string::npos) << out;
 }
 
 TEST_F(BadArchiveCli, EveryKindOfDamageIsExit2NamingTheDatasetAndWritesNothing) {

@@ -79,6 +79,10 @@ DAMAGE = {
     "negative_radius": lambda f: f["design/radii"].__setitem__((3, 1), -1e-3),
     "nan_residual_converged": lambda f: f["poses/large"].attrs.__setitem__("residual_norm", np.nan),
     "status_unknown": lambda f: f.attrs.__setitem__("status", "maybe"),
+    # not damage: a pose that failed may report a residual it could not compute
+    "failed_pose_nan_residual": lambda f: (f["poses/large"].attrs.__setitem__("residual_norm", np.nan),
+                                           f["poses/large"].attrs.__setitem__("status", "failed"),
+                                           f.attrs.__setitem__("status", "failed")),
     # disagreement with the scene or /model
     "n_vertices_mismatch": lambda f: f["model"].attrs.__setitem__("n_vertices", np.int64(7)),
     "n_edges_mismatch": lambda f: f["model"].attrs.__setitem__("n_edges", np.int64(9)),
