@@ -103,7 +103,7 @@ TEST(SceneReaderErrors, EmptyFile) {
 }
 
 TEST(SceneReaderErrors, TopLevelNotAnObject) {
-  expectMessage(errorOf(std::string("[1, 2, 3]")), "<root>");
+  expectMessage(errorOf(std::string("[1, 2, 3]")), "<root>", {"got array [1,2,3]"});
 }
 
 TEST(SceneReaderErrors, MissingFileNamesThePath) {
@@ -146,7 +146,7 @@ TEST(SceneReaderErrors, MissingMaterial) {
 TEST(SceneReaderErrors, MaterialNotAnObject) {
   json j = baseScene();
   j["material"] = json::array({1, 2, 3});
-  expectMessage(errorOf(j), "material");
+  expectMessage(errorOf(j), "material", {"got array [1,2,3]"});
 }
 
 TEST(SceneReaderErrors, MissingMaterialKeys) {
@@ -196,7 +196,7 @@ TEST(SceneReaderErrors, MissingRods) {
 TEST(SceneReaderErrors, EmptyRods) {
   json j = baseScene();
   j["rods"] = json::array();
-  expectMessage(errorOf(j), "rods");
+  expectMessage(errorOf(j), "rods", {"got []"});
 }
 
 TEST(SceneReaderErrors, RodWithoutVerticesKey) {
@@ -226,7 +226,7 @@ TEST(SceneReaderErrors, MissingPoses) {
 TEST(SceneReaderErrors, EmptyPoses) {
   json j = baseScene();
   j["poses"] = json::array();
-  expectMessage(errorOf(j), "poses");
+  expectMessage(errorOf(j), "poses", {"got []"});
 }
 
 TEST(SceneReaderErrors, PoseNotAnObject) {
@@ -238,7 +238,7 @@ TEST(SceneReaderErrors, PoseNotAnObject) {
 TEST(SceneReaderErrors, FixedNotAnArray) {
   json j = baseScene();
   j["poses"][0]["fixed"] = json::object({{"vertex", 0}});
-  expectMessage(errorOf(j), "poses[0].fixed");
+  expectMessage(errorOf(j), "poses[0].fixed", {"got object {\"vertex\":0}"});
 }
 
 TEST(SceneReaderErrors, FixedEntryWithoutVertex) {
@@ -280,7 +280,7 @@ TEST(SceneReaderErrors, NormalsOfWrongCount) {
 TEST(SceneReaderErrors, ZeroNormal) {
   json j = baseScene();
   j["normals"] = json::parse("[[0,0,1],[0,0,1],[0,0,0],[0,0,1]]");
-  expectMessage(errorOf(j), "normals[2]");
+  expectMessage(errorOf(j), "normals[2]", {"got [0,0,0]"});
 }
 
 TEST(SceneReaderErrors, MissingRadiusAndRadii) {
@@ -397,12 +397,6 @@ TEST(SceneReaderErrors, DefaultPoseNameCollisionNamesBothPoses) {
   expectMessage(errorOf(j), "poses[1]", {"default name \"pose1\"", "poses[0]"});
 }
 
-TEST(SceneReaderErrors, ZeroLengthEdgeShowsWhere) {
-  json j = baseScene();
-  j["vertices"][2] = j["vertices"][1];
-  expectMessage(errorOf(j), "rods[0].vertices[2]", {"vertices 1 and 2", "[0.01,0,0]"});
-}
-
 TEST(SceneReaderErrors, NotAFileOrTooLarge) {
   try {
     readSceneFile("/tmp");
@@ -491,7 +485,7 @@ TEST(SceneReaderErrors, TwistingMomentVertexIndexOutOfRange) {
 TEST(SceneReaderErrors, ZeroLengthEdge) {
   json j = baseScene();
   j["vertices"][2] = j["vertices"][1];
-  expectMessage(errorOf(j), "rods[0].vertices[2]", {"1", "2"});
+  expectMessage(errorOf(j), "rods[0].vertices[2]", {"vertices 1 and 2", "both at [0.01,0,0]"});
 }
 
 TEST(SceneReaderErrors, VertexRepeatedInOneRod) {
@@ -665,13 +659,13 @@ TEST(SceneReaderErrors, UnknownEffectName) {
 TEST(SceneReaderErrors, EffectsWithoutStretch) {
   json j = baseScene();
   j["effects"] = {"bend", "twist"};
-  expectMessage(errorOf(j), "effects", {"stretch"});
+  expectMessage(errorOf(j), "effects", {"stretch", "got [\"bend\",\"twist\"]"});
 }
 
 TEST(SceneReaderErrors, GravityEffectWithoutGravityVector) {
   json j = baseScene();
   j["effects"] = {"stretch", "bend", "gravity"};
-  expectMessage(errorOf(j), "effects", {"gravity"});
+  expectMessage(errorOf(j), "effects", {"gravity", "got [\"stretch\",\"bend\",\"gravity\"]"});
 }
 
 TEST(SceneReaderErrors, EffectNotAString) {
