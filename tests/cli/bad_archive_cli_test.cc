@@ -6,7 +6,8 @@
 // declared sizes far beyond the file, non-finite and out-of-range values,
 // disagreement with the scene, truncated and overwritten bytes. Inputs found
 // by fuzzing (fuzz/regressions/archive/) get the same treatment. Every command
-// runs under timeout(1), so a hang fails instead of stalling the suite.
+// runs under timeout(1), so a hang fails instead of stalling the suite. Built
+// only with the meshing module, which brings the export verb (tests/CMakeLists.txt).
 #include "tests/cli/cli_util.hh"
 
 #include <gtest/gtest.h>
