@@ -16,6 +16,9 @@ packages=(
   # timings do not depend on BLAS threads). SAND's KKT factorizations spent
   # 63% of their time in the reference dgemm.
   libopenblas0-serial
+  # scripts/fuzz.sh: clang 14; libFuzzer and the sanitizer runtimes are in
+  # libclang-rt-14-dev, only recommended by clang
+  clang libclang-rt-14-dev
 )
 
 missing=()
