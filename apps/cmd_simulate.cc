@@ -29,6 +29,7 @@ struct SimulateOptions {
   double duration = 0.0;
   double fps = 30.0;
   std::optional<double> ramp;  // s; default: see rampFor
+  double timeLimit = 0.0;      // s per pose; 0: none
   DynamicsOptions dynamics;
 };
 
@@ -43,6 +44,7 @@ struct PoseOutcome {
   double residualNorm = 0.0;
   double timeSeconds = 0.0;
   int outOfPlaneStable = -1;  // planar Newton solves: 1 stable, 0 saddle in 3D, -1 not checked
+  std::string message;        // why it did not converge (empty when it did)
 };
 
 constexpr double kMaxFrames = 1e6;
@@ -63,8 +65,24 @@ std::string number(double x) {
   return buf;
 }
 
+// Allowed ranges of the solver flags (usage errors name the flag, the value
+// and the range). --tol: relative force residual; --max-iter: Newton
+// iterations per load step (static), per time step (--dynamic), or force
+// evaluations (relaxation).
+constexpr double kMinTol = 1e-16, kMaxTol = 0.1;
+constexpr int kMaxNewtonIter = 10000, kMaxStepNewtonIter = 1000, kMaxRelaxIter = 100000000;
+
 void checkOptions(const SimulateOptions& o, const CLI::App& app) {
   auto given = [&](const char* flag) { return app.count(flag) > 0; };
+  if (given("--tol") && !(o.newton.tolerance >= kMinTol && o.newton.tolerance <= kMaxTol))
+    throw InputError("simulate: --tol must lie in [" + number(kMinTol) + ", " + number(kMaxTol) + "], got " +
+                     number(o.newton.tolerance));
+  if (given("--max-iter")) {
+    const int hi = o.dynamic ? kMaxStepNewtonIter : o.staticSolver == "relaxation" ? kMaxRelaxIter : kMaxNewtonIter;
+    if (o.newton.maxIterations < 1 || o.newton.maxIterations > hi)
+      throw InputError("simulate: --max-iter must lie in [1, " + std::to_string(hi) + "], got " +
+                       std::to_string(o.newton.maxIterations));
+  }
   if (!o.dynamic) {
     for (const char* flag : {"--duration", "--fps", "--max-step", "--ramp"})
       if (given(flag)) throw InputError(std::string("simulate: ") + flag + " needs --dynamic");
@@ -72,15 +90,25 @@ void checkOptions(const SimulateOptions& o, const CLI::App& app) {
     if (!given("--duration")) throw InputError("simulate: --dynamic needs --duration SECONDS");
     if (given("--static-solver")) throw InputError("simulate: --static-solver does not apply to --dynamic");
     if (!(o.duration > 0) || !std::isfinite(o.duration))
-      throw InputError("simulate: --duration must be a positive number of seconds, got " + number(o.duration));
+      throw InputError("simulate: --duration must be a finite positive number of seconds, allowed range (0, inf), got " +
+                       number(o.duration));
     if (!(o.fps > 0) || !std::isfinite(o.fps))
-      throw InputError("simulate: --fps must be positive, got " + number(o.fps));
-    if (!(o.dynamics.maxStep > 0) || !std::isfinite(o.dynamics.maxStep))
-      throw InputError("simulate: --max-step must be a positive number of seconds, got " + number(o.dynamics.maxStep));
+      throw InputError("simulate: --fps must be a finite positive number, allowed range (0, inf), got " + number(o.fps));
+    if (o.duration * o.fps > kMaxFrames)
+      throw InputError("simulate: --duration x --fps asks for " + number(o.duration * o.fps) +
+                       " frames; at most 1e6 (lower --fps)");
+    // Every time step of a run counts against DynamicsOptions::maxSteps: a
+    // largest step that cannot cover the duration within them is absurd.
+    const double smallest = o.duration / static_cast<double>(o.dynamics.maxSteps);
+    if (!(o.dynamics.maxStep >= smallest) || !std::isfinite(o.dynamics.maxStep))
+      throw InputError("simulate: --max-step must lie in [" + number(smallest) + ", inf) seconds for --duration " +
+                       number(o.duration) + " (at most " + std::to_string(o.dynamics.maxSteps) + " time steps), got " +
+                       number(o.dynamics.maxStep));
     if (o.ramp && (!(*o.ramp >= 0) || !std::isfinite(*o.ramp)))
-      throw InputError("simulate: --ramp must be a non-negative number of seconds, got " + number(*o.ramp));
-    if (o.duration * o.fps > kMaxFrames) throw InputError("simulate: --duration x --fps asks for more than 1e6 frames");
-    if (std::string why = o.dynamics.isValid(); !why.empty()) throw InputError("simulate: " + why);
+      throw InputError("simulate: --ramp must be a finite non-negative number of seconds, allowed range [0, inf), got " +
+                       number(*o.ramp));
+    if (std::string why = checkDynamicRun(o.dynamics, o.duration, o.fps, kMaxFrames); !why.empty())
+      throw InputError("simulate: " + why);
   }
   if (std::string why = o.newton.isValid(); !why.empty()) throw InputError("simulate: " + why);
   if (o.staticSolver == "relaxation")
@@ -106,6 +134,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
          "--max-iter", opts->newton.maxIterations,
          "Newton iterations per load step (relaxation: iterations; --dynamic: Newton iterations per time step)")
       ->capture_default_str();
+  app->add_option("--time-limit", opts->timeLimit,
+                  "wall-clock seconds per pose, after which the solve stops with what it reached (default: none)");
   app->add_flag("--dynamic", opts->dynamic, "simulate the motion from rest (backward Euler, adaptive steps)");
   app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)");
   app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")->capture_default_str();
@@ -122,6 +152,12 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     const bool maxIterGiven = app->count("--max-iter") > 0;
     const bool tolGiven = app->count("--tol") > 0;
     o.relaxation.tolerance = o.newton.tolerance;
+    if (app->count("--time-limit") > 0) {
+      if (!(o.timeLimit > 0) || !std::isfinite(o.timeLimit))
+        throw InputError("simulate: --time-limit must be a finite positive number of seconds, allowed range (0, inf), "
+                         "got " + number(o.timeLimit));
+      o.newton.timeLimit = o.relaxation.timeLimit = o.dynamics.timeLimit = o.timeLimit;
+    }
     if (maxIterGiven) o.relaxation.maxIterations = o.newton.maxIterations;
     if (o.dynamic) {
       if (tolGiven) o.dynamics.tolerance = o.newton.tolerance;
@@ -198,7 +234,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         const DynamicsReport rep = simulateDynamics(sys, design, masses, dyn, o.duration, o.fps, frames, progress);
         PoseOutcome r;
         finishPose(p, r, frames.finalDofs);
-        r.status = rep.ok ? "converged" : "failed";
+        // A step below its minimum fails; a step budget or time limit stops early.
+        r.status = rep.ok ? "converged" : archiveStatus(rep.outcome);
         r.iterations = rep.newtonIterations;
         r.residualNorm = rep.lastResidual;
         r.timeSeconds = rep.wallSeconds;
@@ -208,7 +245,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         char details[256];
         std::snprintf(details, sizeof details, "t = %.4f s in %d steps (%d rejected%s), %d Newton iterations", rep.time,
                       rep.steps, rep.rejectedSteps, steps, rep.newtonIterations);
-        reportPose(p, r, details, rep.ok ? "" : rep.message);
+        if (!rep.ok) r.message = rep.message;
+        reportPose(p, r, details, r.message);
         ArchiveFrames af;
         af.name = name;
         af.time = Eigen::Map<const Eigen::VectorXd>(frames.time.data(), frames.time.size());
@@ -236,7 +274,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         std::snprintf(details, sizeof details,
                       "%d relaxation iterations, %d kinetic-energy peaks, relative residual %.1e", rep.iterations,
                       rep.restarts, rep.relativeResidual);
-        reportPose(p, r, details, rep.converged ? "" : rep.message);
+        if (!rep.converged) r.message = rep.message;
+        reportPose(p, r, details, r.message);
         outcomes.push_back(std::move(r));
       }
     } else {
@@ -244,7 +283,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       auto progress = [&](int p, const PoseResult& pr) {
         PoseOutcome r;
         finishPose(p, r, pr.dofs);
-        r.status = pr.report.converged ? "converged" : "not_converged";
+        // Non-finite loads or states, and problems without a solution, fail.
+        r.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
         r.iterations = pr.report.iterations;
         r.residualNorm = pr.report.residualNorm;
         r.timeSeconds = pr.report.timeSeconds;
@@ -252,7 +292,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         char details[256];
         std::snprintf(details, sizeof details, "%d Newton iterations, %d load steps, relative residual %.1e",
                       pr.report.iterations, pr.report.loadSteps, pr.report.relativeResidual);
-        reportPose(p, r, details, pr.report.converged ? "" : pr.report.message);
+        if (!pr.report.converged) r.message = pr.report.message;
+        reportPose(p, r, details, r.message);
         if (!quiet && r.outOfPlaneStable == 0)
           std::cerr << "  note: this in-plane equilibrium is unstable out of plane (a saddle of the 3D model); "
                        "solve with \"effects\" including \"twist\" to find the buckled state\n";
@@ -267,6 +308,12 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       anyFailed = anyFailed || r.status == "failed";
     }
     a.status = allOk ? "converged" : anyFailed ? "failed" : "not_converged";
+    // Why each pose that did not converge stopped (e.g. the load factor its
+    // archived positions are in equilibrium at).
+    std::string message;
+    for (const PoseOutcome& r : outcomes)
+      if (!r.message.empty()) message += (message.empty() ? "" : "; ") + ("pose '" + r.name + "': " + r.message);
+    if (!message.empty()) a.extraRootAttributes["message"] = message;
     const int nv = model.network().numVertices();
     a.restPositions.resize(nv, 3);
     a.radii.resize(nv, 2);

@@ -1,5 +1,7 @@
 #include "solver/newton.hh"
 
+#include "solver/modified_ldlt.hh"
+
 #include <Eigen/SparseCholesky>
 
 #include <algorithm>
@@ -21,22 +23,6 @@ using Ldlt = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Ei
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 constexpr double kPi = 3.14159265358979323846;
-// The elimination computes a pivot D_k = H_kk - sum_j L_kj^2 D_j with an
-// error of some eps times the diagonal entries it combines: a pivot within
-// kPivotRoundoff eps of the largest diagonal entry among its row's neighbours
-// is a zero-stiffness mode (measured: the rigid-body pivots of free quad and
-// triangle grids, the free Sheet and the free sphere come out at up to 50 eps
-// of that, either sign). The threshold is local, never relative to the
-// largest pivot overall: a long cantilever's tip pivot is ~1e-12 of its
-// stiffest one at 10,000 vertices (and stays above this threshold up to
-// ~50,000 vertices), and flooring it turned Newton into a crawl. Nor is H
-// itself regularised: its smallest eigenvalue is only ~15 eps of its largest
-// diagonal entry for a 5,000-vertex cantilever, so even a shift of 100 eps
-// |H_kk| would swamp the tip mode. Only when the elimination meets an exactly
-// zero pivot (a rod free to swing about a pin) is the diagonal raised by that
-// round-off level; the floored pivots and the trust radius then take care of
-// the mechanism.
-constexpr double kPivotRoundoff = 1e3;
 // Rule 3: a Newton correction within this many units of round-off of every
 // unknown cannot improve the state.
 constexpr double kCorrectionUlps = 4.0;
@@ -45,43 +31,6 @@ constexpr double kCorrectionUlps = 4.0;
 // precision can represent in equilibrium (energies ~ stiffness x size^2 x
 // this^2 would overflow).
 constexpr double kAbsurdDisplacement = 1e100;
-
-// Per-unknown resolution scale |u_i| + s_i: s_i the mean edge length for a
-// coordinate (the rounding of an edge vector within the kernels), 1 rad for
-// a twist (frame transports are computed to eps in angle).
-Eigen::VectorXd unknownScale(const PoseSystem& sys, const Eigen::VectorXd& u) {
-  const int nv = sys.numVertexDofs();
-  Eigen::VectorXd a = u.cwiseAbs();
-  a.head(nv).array() += sys.momentArm();
-  a.tail(u.size() - nv).array() += 1.0;
-  return a;
-}
-
-// rho_i = eps sqrt(sum_j H_ij^2 a_j^2) from the lower triangle of H: the
-// root-mean-square residual that rounding every unknown u_j by eps a_j produces
-// (in gradient units: N for coordinates, N m for twists).
-Eigen::VectorXd roundoffVector(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& a) {
-  const int n = static_cast<int>(H.cols());
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(n);
-  for (int c = 0; c < n; ++c)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it) {
-      const int r = static_cast<int>(it.row());
-      const double h2 = it.value() * it.value();
-      q[r] += h2 * a[c] * a[c];
-      if (r != c) q[c] += h2 * a[r] * a[r];
-    }
-  return kEps * q.cwiseSqrt();
-}
-
-// eps^2 sum_ij |H_ij| a_i a_j: the energy (second-order term) of rounding
-// every unknown u_i by eps a_i, the Newton decrement of round-off itself.
-double roundoffEnergy(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& a) {
-  double s = 0.0;
-  for (int c = 0; c < H.cols(); ++c)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it)
-      s += (it.row() == c ? 1.0 : 2.0) * std::abs(it.value()) * a[it.row()] * a[c];
-  return kEps * kEps * s;
-}
 
 // Deterministic pseudo-random signs (splitmix64 of the index).
 double pseudoSign(std::uint64_t i) {
@@ -92,20 +41,11 @@ double pseudoSign(std::uint64_t i) {
   return (z >> 63) ? 1.0 : -1.0;
 }
 
-// Solves (L Dmod L^T) x = b with the current factor (P H P^T = L D L^T).
-Eigen::VectorXd solveWith(const Ldlt& ldlt, const Eigen::VectorXd& Dmod, const Eigen::VectorXd& b) {
-  Eigen::VectorXd y = ldlt.permutationP() * b;
-  ldlt.matrixL().solveInPlace(y);
-  y.array() /= Dmod.array();
-  ldlt.matrixU().solveInPlace(y);
-  return ldlt.permutationPinv() * y;
-}
-
 // Largest vertex displacement of a step (Euclidean per vertex).
 double maxVertexStep(const PoseSystem& sys, const Eigen::VectorXd& d) {
   const int D = sys.dofsPerVertex();
   double m = 0.0;
-  for (int k = 0; k + D <= sys.numVertexDofs(); k += D) m = std::max(m, d.segment(k, D).norm());
+  for (int k = 0; k + D <= sys.numVertexDofs(); k += D) m = std::max(m, d.segment(k, D).stableNorm());
   return m;
 }
 
@@ -149,10 +89,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     return rep;
   }
 
-  Ldlt ldlt;
-  bool analysed = false;
-  Eigen::SparseMatrix<double> H;
-  std::vector<int> diagSlot;
+  ModifiedLdlt factor;
   int escapes = 0;
   const bool debug = std::getenv("RODMESH_DEBUG_NEWTON") != nullptr;
   const double size = structureSize(system, design, u);
@@ -177,66 +114,14 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     rep.residualHistory.push_back(rep.relativeResidual);
     rep.energy = E;
 
-    // Factorize the (round-off regularised) Hessian at the current point.
+    // Factorize the Hessian at the current point (solver/modified_ldlt.hh).
     const Eigen::SparseMatrix<double>& H0 = system.hessian();
-    if (!analysed) {
-      H = H0;
-      diagSlot.assign(n, -1);
-      for (int c = 0; c < n; ++c)
-        for (int k = H.outerIndexPtr()[c]; k < H.outerIndexPtr()[c + 1]; ++k)
-          if (H.innerIndexPtr()[k] == c) diagSlot[c] = k;
-      ldlt.analyzePattern(H);
-      analysed = true;
-    }
     ta = Clock::now();
-    std::copy(H0.valuePtr(), H0.valuePtr() + H0.nonZeros(), H.valuePtr());
-    // Round-off level of each row's pivot: kPivotRoundoff eps times the
-    // largest diagonal entry among the row's neighbours.
-    Eigen::VectorXd reg = Eigen::VectorXd::Zero(n);
-    double maxDiag = 0.0;
-    for (int c = 0; c < n; ++c) maxDiag = std::max(maxDiag, std::abs(H0.valuePtr()[diagSlot[c]]));
-    for (int c = 0; c < n; ++c)
-      for (int k = H0.outerIndexPtr()[c]; k < H0.outerIndexPtr()[c + 1]; ++k) {
-        const int r = H0.innerIndexPtr()[k];
-        reg[r] = std::max(reg[r], std::abs(H0.valuePtr()[diagSlot[c]]));
-        reg[c] = std::max(reg[c], std::abs(H0.valuePtr()[diagSlot[r]]));
-      }
-    for (int c = 0; c < n; ++c) {
-      reg[c] = kPivotRoundoff * kEps * std::max(reg[c], kEps * maxDiag);
-      if (!(reg[c] > 0)) reg[c] = std::numeric_limits<double>::min();
-    }
-    ldlt.factorize(H);
-    rep.factorizations++;
-    if (ldlt.info() != Eigen::Success) {
-      // An exactly zero pivot stops the elimination: raise the diagonal by
-      // its round-off level and factorize again.
-      for (int c = 0; c < n; ++c) H.valuePtr()[diagSlot[c]] += reg[c];
-      ldlt.factorize(H);
-      rep.factorizations++;
-    }
-    const Eigen::VectorXd D = ldlt.vectorD();
-    const bool factorOk = ldlt.info() == Eigen::Success && D.allFinite() && D.size() == n;
-    // Classify the pivots against their own rows' round-off: negative
-    // (negative curvature), singular (zero-stiffness modes) or sound.
-    int negative = 0, singular = 0, worst = -1;
-    Eigen::VectorXd Dmod(n);
-    std::vector<char> isSingular(n, 0);
-    if (factorOk) {
-      const Eigen::VectorXd thr = 2.0 * (ldlt.permutationP() * reg);
-      for (int i = 0; i < n; ++i) {
-        if (D[i] < -thr[i]) {
-          ++negative;
-          if (worst < 0 || D[i] < D[worst]) worst = i;
-          Dmod[i] = -D[i];
-        } else if (D[i] <= thr[i]) {
-          ++singular;
-          isSingular[i] = 1;
-          Dmod[i] = thr[i];
-        } else {
-          Dmod[i] = D[i];
-        }
-      }
-    }
+    const int factorizationsBefore = factor.factorizations();
+    const bool factorOk = factor.factorize(H0);
+    rep.factorizations += factor.factorizations() - factorizationsBefore;
+    const int negative = factorOk ? factor.negative() : 0;
+    const int singular = factorOk ? factor.singular() : 0;
     rep.factorSeconds += since(ta);
     rep.negativePivots = negative;
     rep.singularPivots = singular;
@@ -247,13 +132,13 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     bool haveDir = false;
     double tau = 0.0;
     if (factorOk) {
-      d = solveWith(ldlt, Dmod, -g);
+      d = factor.solve(-g);
       haveDir = d.allFinite() && d.dot(g) < 0;
     }
 
     // Round-off floor at this state (rule 2).
-    const Eigen::VectorXd a = unknownScale(system, u);
-    const Eigen::VectorXd rho = roundoffVector(H0, a);
+    const Eigen::VectorXd a = roundoff::unknownScale(system, u);
+    const Eigen::VectorXd rho = roundoff::residualFloor(H0, a);
     double floorForce = system.forceResidual(rho).norm();
     if (!std::isfinite(floorForce)) floorForce = 0.0;
     rep.roundoffFloor = floorForce;
@@ -270,15 +155,8 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
         // The decrement over the modes with stiffness: along a zero-stiffness
         // mode the floored pivot says nothing, and the residual there is
         // already judged by the floor.
-        const double noiseDecrement = roundoffEnergy(H0, a);
-        double decrement = -g.dot(d);
-        if (singular > 0) {
-          Eigen::VectorXd y = ldlt.permutationP() * (-g);
-          ldlt.matrixL().solveInPlace(y);
-          decrement = 0.0;
-          for (int i = 0; i < n; ++i)
-            if (!isSingular[i]) decrement += y[i] * y[i] / Dmod[i];
-        }
+        const double noiseDecrement = roundoff::energyFloor(H0, a);
+        const double decrement = factor.stiffDecrement(-g);
         if (debug)
           std::fprintf(stderr, "it %3d  at floor: res %.3e N floor %.3e N decrement %.3e J noise %.3e J\n", it, res,
                        floorForce, decrement, noiseDecrement);
@@ -319,10 +197,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     // above its buckling load), step along a direction of negative curvature:
     // z = P^T L^-T e_k has z^T H z = D_k < 0.
     if (factorOk && negative > 0 && (small || atFloor || res <= 1e-6 * scale) && escapes < opt.maxEscapes) {
-      Eigen::VectorXd y = Eigen::VectorXd::Zero(n);
-      y[worst] = 1.0;
-      ldlt.matrixU().solveInPlace(y);
-      Eigen::VectorXd z = ldlt.permutationPinv() * y;
+      Eigen::VectorXd z = factor.negativeCurvatureDirection();
       if (z.dot(g) > 0) z = -z;
       z *= 0.1 * system.momentArm() / std::max(z.head(nv).lpNorm<Eigen::Infinity>(), 1e-300);
       if (!z.allFinite() || nv == 0) z.setZero();
@@ -358,18 +233,16 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
 
     // A diagonal shift as the last resort when the factorization itself fails.
     if (!haveDir) {
-      Eigen::VectorXd diag(n);
-      double meanDiag = 0.0;
-      for (int c = 0; c < n; ++c) { diag[c] = std::abs(H0.valuePtr()[diagSlot[c]]); meanDiag += diag[c]; }
-      meanDiag = meanDiag > 0 ? meanDiag / n : 1.0;
-      for (int c = 0; c < n; ++c) diag[c] = std::max(diag[c], 1e-8 * meanDiag);
+      Eigen::VectorXd diag = H0.diagonal().cwiseAbs();
+      const double meanDiag = diag.sum() > 0 ? diag.sum() / n : 1.0;
+      diag = diag.cwiseMax(1e-8 * meanDiag);
       ta = Clock::now();
       for (tau = opt.minShift; tau <= opt.maxShift; tau *= 10) {
-        for (int c = 0; c < n; ++c) H.valuePtr()[diagSlot[c]] = H0.valuePtr()[diagSlot[c]] + tau * diag[c];
-        ldlt.factorize(H);
-        rep.factorizations++;
-        if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0).all()) continue;
-        d = ldlt.solve(-g);
+        const int before = factor.factorizations();
+        const bool ok = factor.factorizeShifted(H0, tau * diag);
+        rep.factorizations += factor.factorizations() - before;
+        if (!ok) continue;
+        d = factor.solve(-g);
         if (d.allFinite() && d.dot(g) < 0) { haveDir = true; break; }
       }
       rep.factorSeconds += since(ta);
@@ -492,7 +365,8 @@ double loadScale(PoseSystem& system, const Design& design) {
 
 double roundoffFloor(const PoseSystem& system, const Eigen::VectorXd& u) {
   if (system.numDofs() == 0) return 0.0;
-  const double f = system.forceResidual(roundoffVector(system.hessian(), unknownScale(system, u))).norm();
+  const double f =
+      system.forceResidual(roundoff::residualFloor(system.hessian(), roundoff::unknownScale(system, u))).norm();
   return std::isfinite(f) ? f : 0.0;
 }
 
@@ -619,7 +493,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     Eigen::VectorXd g;
     double e;
     system.evaluate(u, design, e, g, false);
-    total.residualNorm = system.forceResidual(g).norm();
+    total.residualNorm = system.forceResidual(g).stableNorm();
     total.energy = e;
     total.timeSeconds = since(t0);
     finishState(1.0);
@@ -726,7 +600,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   Eigen::VectorXd g;
   double e;
   system.evaluate(u, design, e, g, false);
-  total.residualNorm = system.forceResidual(g).norm();
+  total.residualNorm = system.forceResidual(g).stableNorm();
   total.relativeResidual = total.residualNorm / scale;
   total.energy = e;
   if (!std::isfinite(total.residualNorm) || !std::isfinite(e)) {
