@@ -34,7 +34,8 @@ bool ModifiedLdlt::factorize(const Eigen::SparseMatrix<double>& A) {
   const int n = static_cast<int>(A.cols());
   if (!prepare(A)) return false;
   // Round-off level of each row's pivot: kPivotRoundoff eps times the largest
-  // diagonal entry among the row's neighbours.
+  // diagonal entry among the row's neighbours, but at most kOwnDiagonal times
+  // the row's own (a soft rod attached to a stiff one keeps its own scale).
   Eigen::VectorXd reg = Eigen::VectorXd::Zero(n);
   const double* v = work_.valuePtr();
   double maxDiag = 0.0;
@@ -46,7 +47,8 @@ bool ModifiedLdlt::factorize(const Eigen::SparseMatrix<double>& A) {
       reg[c] = std::max(reg[c], std::abs(v[diagSlot_[r]]));
     }
   for (int c = 0; c < n; ++c) {
-    reg[c] = kPivotRoundoff * kEps * std::max(reg[c], kEps * maxDiag);
+    const double scale = std::min(reg[c], kOwnDiagonal * std::abs(v[diagSlot_[c]]));
+    reg[c] = kPivotRoundoff * kEps * std::max(scale, kEps * maxDiag);
     if (!(reg[c] > 0)) reg[c] = std::numeric_limits<double>::min();
   }
   if (!reg.allFinite()) return false;

@@ -3,12 +3,17 @@
 // against their own rows' round-off, and estimates of the round-off floor of
 // an assembled system.
 //
-// Pivots. The elimination computes D_k = A_kk - sum_j L_kj^2 D_j with an error
-// of some eps times the diagonal entries it combines. A pivot within
-// kPivotRoundoff eps of the largest diagonal entry among its row's neighbours
-// is a zero-stiffness mode (measured: the rigid-body pivots of free quad and
-// triangle grids, of the free Sheet and of the free sphere come out within
-// 50 eps of that, either sign); below minus that it is negative curvature.
+// Pivots. The elimination computes D_k = A_kk - sum_j L_kj^2 D_j with an
+// error of some eps times the diagonal entries it combines. A pivot within
+// kPivotRoundoff eps of s_k, the largest diagonal entry among its row's
+// neighbours but at most kOwnDiagonal times the row's own, is a
+// zero-stiffness mode; below minus that it is negative curvature. Measured:
+// the rigid-body pivots of free quad and triangle grids, of the free Sheet
+// and of the free sphere come out within 50 eps of the neighbours' largest
+// diagonal entry and within 4,400 eps of their own, either sign; the tip
+// pivot of a thin rod (r = 1e-5 m) on a thick one (r = 1e-2 m) is 2.4e-9 N/m,
+// ~1e-3 of its own diagonal entry but 3e-15 of its thick neighbour's, hence
+// the cap by the row's own entry.
 // The threshold is local, never relative to the largest pivot overall: a
 // long cantilever's tip pivot is ~1e-12 of its stiffest one at 10,000
 // vertices (it stays above this threshold up to ~50,000 vertices), and a
@@ -36,6 +41,7 @@ namespace rodmesh {
 class PoseSystem;
 
 constexpr double kPivotRoundoff = 1e3;
+constexpr double kOwnDiagonal = 100.0;
 
 class ModifiedLdlt {
  public:

@@ -107,7 +107,9 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     return rep;
   }
 
+  double energyAtTenth = E;
   for (int it = 0;; ++it) {
+    if (it == opt.maxIterations - std::max(1, opt.maxIterations / 10)) energyAtTenth = E;
     const double res = system.forceResidual(g).norm();
     rep.residualNorm = res;
     rep.relativeResidual = scale > 0 ? res / scale : res;
@@ -155,12 +157,17 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
         // The decrement over the modes with stiffness: along a zero-stiffness
         // mode the floored pivot says nothing, and the residual there is
         // already judged by the floor.
+        // Along zero-stiffness modes, every component of the residual must be
+        // within its own round-off (a light part hinged to a heavy one is not
+        // judged by the heavy part's floor).
         const double noiseDecrement = roundoff::energyFloor(H0, a);
         const double decrement = factor.stiffDecrement(-g);
+        const bool componentsAtFloor =
+            singular == 0 || (system.forceResidual(g).cwiseAbs().array() <= system.forceResidual(rho).array()).all();
         if (debug)
           std::fprintf(stderr, "it %3d  at floor: res %.3e N floor %.3e N decrement %.3e J noise %.3e J\n", it, res,
                        floorForce, decrement, noiseDecrement);
-        if (decrement <= noiseDecrement) {
+        if (decrement <= noiseDecrement && componentsAtFloor) {
           rep.converged = true;
           rep.outcome = Outcome::Converged;
           rep.roundoff = true;
@@ -180,6 +187,17 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     }
     const bool atFloor = res <= floorForce;
     if (it >= opt.maxIterations) {
+      // Still progressing (a long descent such as a mechanism's rigid swing,
+      // not a stall): over the last tenth of the iterations the energy fell
+      // by more than its round-off and the residual reached a new low.
+      {
+        const auto& hist = rep.residualHistory;
+        const std::size_t tenth = std::max<std::size_t>(1, hist.size() / 10);
+        const double before = *std::min_element(hist.begin(), hist.end() - tenth);
+        const double recent = *std::min_element(hist.end() - tenth, hist.end());
+        rep.progressing = hist.size() > tenth && energyAtTenth - E > 1e-12 * std::max(std::abs(E), 1e-300) &&
+                          recent < before;
+      }
       const bool saddle = (small || atFloor) && negative > 0;
       rep.message = saddle ? "reached an unstable equilibrium (negative curvature persists) at the iteration limit"
                            : "iteration limit reached";
@@ -370,6 +388,10 @@ double roundoffFloor(const PoseSystem& system, const Eigen::VectorXd& u) {
   return std::isfinite(f) ? f : 0.0;
 }
 
+bool Stability::zeroMode() const {
+  return ok && std::abs(smallestEigenvalue) <= kPivotRoundoff * kEps * largestDiagonal;
+}
+
 Stability stability(PoseSystem& system, const Design& design, const Eigen::VectorXd& u) {
   Stability out;
   const int n = system.numDofs(), nv = system.numVertexDofs();
@@ -385,6 +407,9 @@ Stability stability(PoseSystem& system, const Design& design, const Eigen::Vecto
   s.tail(n - nv).setConstant(1.0 / system.momentArm());
   Eigen::SparseMatrix<double> K = s.asDiagonal() * system.hessian() * s.asDiagonal();
   if (!Eigen::Map<const Eigen::VectorXd>(K.valuePtr(), K.nonZeros()).allFinite()) return out;
+  for (int k = 0; k < K.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(K, k); it; ++it)
+      if (it.row() == it.col()) out.largestDiagonal = std::max(out.largestDiagonal, std::abs(it.value()));
   Ldlt ldlt;
   ldlt.compute(K);
   Eigen::VectorXd D = ldlt.vectorD();
@@ -500,10 +525,21 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     return total;
   }
 
-  // Full load first, from the given state.
+  // Full load first, from the given state. A run that ends at its iteration
+  // limit while still descending steadily resumes from where it stopped: a
+  // mechanism's large rigid motion (a sheet swinging about a line of pinned
+  // vertices) takes many iterations at any load, and smaller load steps do
+  // not shorten it.
   Eigen::VectorXd uTry = u;
   NewtonReport r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
   merge(r);
+  for (int resume = 0; !r.converged && r.outcome == Outcome::MaxIterations && r.progressing &&
+                       resume < opt.maxLoadHalvings;
+       ++resume) {
+    r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
+    merge(r);
+    total.resumes++;
+  }
   double reached = 1.0;
   if (r.converged) {
     u = uTry;
@@ -579,7 +615,16 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         const bool lost = negativeBeyond || (here.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
                                             here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
         r.outcome = Outcome::Stalled;
-        if (lost) {
+        if (unloaded.zeroMode()) {
+          os << "the structure is a mechanism: its unloaded stiffness has a zero-stiffness mode (smallest eigenvalue "
+             << format("%.3g", unloaded.smallestEigenvalue) << " N/m, at the round-off of stiffnesses up to "
+             << format("%.3g", unloaded.largestDiagonal)
+             << " N/m), so the loads must carry it through a large rigid motion (vertices held by 'fixed' along one "
+                "straight line act as a hinge; an unsupported part moves freely), which Newton did not complete "
+                "(load factor reached "
+             << format("%.6g", lam) << "); clamp a held vertex or hold one off that line; " << returned
+             << " (last attempt: " << last << ")";
+        } else if (lost) {
           os << "the equilibrium path was lost at load factor " << format("%.6g", lam)
              << ": no equilibrium was found within a load step of " << minStep
              << " beyond it (a limit or bifurcation point; smallest stiffness eigenvalue there "

@@ -63,7 +63,9 @@ struct NewtonReport {
   bool converged = false;           // outcome == Outcome::Converged
   Outcome outcome = Outcome::NumericalFailure;
   int iterations = 0;               // Newton iterations (all load steps)
-  int loadSteps = 0;                // load steps taken (1 without continuation)
+  int loadSteps = 0;                // load steps taken (1 without continuation), resumed runs included
+  int resumes = 0;                  // full-load runs resumed after their iteration limit (still progressing)
+  bool progressing = false;         // stopped at the iteration limit while still descending steadily
   int factorizations = 0;
   int hessianModifications = 0;     // iterations that needed a diagonal shift
   int backtracks = 0;               // step halvings in line searches
@@ -127,6 +129,11 @@ struct Stability {
   bool ok = false;            // false: the Hessian could not be factorized
   int negative = 0;           // negative eigenvalues (0: stable)
   double smallestEigenvalue = 0.0;
+  double largestDiagonal = 0.0;  // N/m, of the same (scaled) Hessian
+  // A zero-stiffness mode (a mechanism, or rigid motion of an unsupported
+  // structure): |smallest eigenvalue| at the round-off of the largest
+  // diagonal entry (kPivotRoundoff eps, solver/modified_ldlt.hh).
+  bool zeroMode() const;
 };
 Stability stability(PoseSystem& system, const Design& design, const Eigen::VectorXd& u);
 
