@@ -75,13 +75,13 @@ constexpr int kMaxNewtonIter = 10000, kMaxStepNewtonIter = 1000, kMaxRelaxIter =
 void checkOptions(const SimulateOptions& o, const CLI::App& app) {
   auto given = [&](const char* flag) { return app.count(flag) > 0; };
   if (given("--tol") && !(o.newton.tolerance >= kMinTol && o.newton.tolerance <= kMaxTol))
-    throw InputError("simulate: --tol must lie in [" + number(kMinTol) + ", " + number(kMaxTol) + "], got " +
-                     number(o.newton.tolerance));
+    throw InputError("simulate: --tol " + number(o.newton.tolerance) + " is out of its allowed range [" +
+                     number(kMinTol) + ", " + number(kMaxTol) + "] (force residual relative to the load scale)");
   if (given("--max-iter")) {
     const int hi = o.dynamic ? kMaxStepNewtonIter : o.staticSolver == "relaxation" ? kMaxRelaxIter : kMaxNewtonIter;
     if (o.newton.maxIterations < 1 || o.newton.maxIterations > hi)
-      throw InputError("simulate: --max-iter must lie in [1, " + std::to_string(hi) + "], got " +
-                       std::to_string(o.newton.maxIterations));
+      throw InputError("simulate: --max-iter " + std::to_string(o.newton.maxIterations) +
+                       " is out of its allowed range [1, " + std::to_string(hi) + "]");
   }
   if (!o.dynamic) {
     for (const char* flag : {"--duration", "--fps", "--max-step", "--ramp"})
@@ -96,14 +96,14 @@ void checkOptions(const SimulateOptions& o, const CLI::App& app) {
       throw InputError("simulate: --fps must be a finite positive number, allowed range (0, inf), got " + number(o.fps));
     if (o.duration * o.fps > kMaxFrames)
       throw InputError("simulate: --duration x --fps asks for " + number(o.duration * o.fps) +
-                       " frames; at most 1e6 (lower --fps)");
+                       " frames; allowed range: at most 1e6 frames (lower --fps or --duration)");
     // Every time step of a run counts against DynamicsOptions::maxSteps: a
     // largest step that cannot cover the duration within them is absurd.
     const double smallest = o.duration / static_cast<double>(o.dynamics.maxSteps);
     if (!(o.dynamics.maxStep >= smallest) || !std::isfinite(o.dynamics.maxStep))
-      throw InputError("simulate: --max-step must lie in [" + number(smallest) + ", inf) seconds for --duration " +
-                       number(o.duration) + " (at most " + std::to_string(o.dynamics.maxSteps) + " time steps), got " +
-                       number(o.dynamics.maxStep));
+      throw InputError("simulate: --max-step " + number(o.dynamics.maxStep) + " is out of its allowed range [" +
+                       number(smallest) + ", inf) seconds for --duration " + number(o.duration) + " (at most " +
+                       std::to_string(o.dynamics.maxSteps) + " time steps)");
     if (o.ramp && (!(*o.ramp >= 0) || !std::isfinite(*o.ramp)))
       throw InputError("simulate: --ramp must be a finite non-negative number of seconds, allowed range [0, inf), got " +
                        number(*o.ramp));
