@@ -1,6 +1,7 @@
 #include "solver/equilibrium.hh"
 
 #include "model/stiffness.hh"
+#include "solver/modified_ldlt.hh"
 
 #include <Eigen/SparseCholesky>
 
@@ -59,11 +60,12 @@ bool outOfPlaneStable(const Scene& scene, const RodNetwork& network, const Effec
   double e;
   Eigen::VectorXd g;
   sys.evaluate(u, design, e, g, true);
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(sys.hessian());
-  if (ldlt.info() != Eigen::Success) return true;  // cannot tell; do not cry wolf
-  const Eigen::VectorXd D = ldlt.vectorD();
-  const double tol = 1e-8 * D.cwiseAbs().maxCoeff();
-  return (D.array() >= -tol).all();
+  // Negative pivots beyond their rows' round-off (solver/modified_ldlt.hh):
+  // a threshold relative to the largest pivot would hide the negative
+  // curvature of a long rod's soft modes.
+  ModifiedLdlt factor;
+  if (!factor.factorize(sys.hessian())) return true;  // cannot tell; do not cry wolf
+  return factor.negative() == 0;
 }
 
 SimulationResult simulateAll(SceneModel& model, const Design& design, const NewtonOptions& options,

@@ -548,17 +548,21 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     r.message = "time limit reached at the full load before convergence; the returned state is the initial guess";
   } else {
     // Adaptive continuation in the load factor, from the rest state; the
-    // reference-frame charts travel with the state they belong to.
+    // reference-frame charts travel with the state they belong to. Not for a
+    // structure with a zero-stiffness mode at rest (see the header): smaller
+    // loads need the same large motion along it.
     system.setCharts(rest.charts);
+    system.setLoadFactor(0.0);
+    const Stability unloaded = stability(system, design, rest.u);
     Eigen::VectorXd uCur = rest.u;
     PoseSystem::Charts chartsCur = rest.charts;
     double lam = 0.0, step = 0.5;
     const double minStep = std::ldexp(1.0, -opt.maxLoadHalvings);
     // Intermediate load steps need not be tight, but never sloppy.
     const double stepTol = std::min(std::max(opt.tolerance, 1e-6), 1e-4);
-    bool failed = false, timedOut = false;
+    bool failed = unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure, timedOut = false;
     bool negativeBeyond = false;  // a failed step beyond lam met negative curvature
-    while (lam < 1.0) {
+    while (lam < 1.0 && !failed) {
       if (hasDeadline && Clock::now() > deadline) { timedOut = true; break; }
       const double next = std::min(1.0, lam + step);
       system.setLoadFactor(next);
@@ -606,24 +610,22 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         os << "failed at every load step down to " << minStep << " of the full load (" << last << "); " << returned;
       } else {
         system.setLoadFactor(lam);
-        const Stability here = stability(system, design, uCur);
-        system.setLoadFactor(0.0);
-        system.setCharts(rest.charts);
-        const Stability unloaded = stability(system, design, rest.u);
         system.setCharts(chartsCur);
+        const Stability here = lam == 0.0 ? unloaded : stability(system, design, uCur);
         total.smallestEigenvalue = here.smallestEigenvalue;
         const bool lost = negativeBeyond || (here.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
                                             here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
         r.outcome = Outcome::Stalled;
         if (unloaded.zeroMode()) {
-          os << "the structure is a mechanism: its unloaded stiffness has a zero-stiffness mode (smallest eigenvalue "
+          os << "the unloaded structure has a mode without stiffness that double precision resolves (smallest "
+                "eigenvalue "
              << format("%.3g", unloaded.smallestEigenvalue) << " N/m, at the round-off of stiffnesses up to "
              << format("%.3g", unloaded.largestDiagonal)
-             << " N/m), so the loads must carry it through a large rigid motion (vertices held by 'fixed' along one "
-                "straight line act as a hinge; an unsupported part moves freely), which Newton did not complete "
-                "(load factor reached "
-             << format("%.6g", lam) << "); clamp a held vertex or hold one off that line; " << returned
-             << " (last attempt: " << last << ")";
+             << " N/m): either a mechanism, which the loads must carry through a large rigid motion that Newton did "
+                "not complete (vertices held by 'fixed' along one straight line act as a hinge: clamp one, or hold "
+                "one off that line; an unsupported part moves freely), or a discretization too fine for double "
+                "precision (the bending stiffness of a rod of N edges spans ~N^4); "
+             << returned << " (last attempt: " << last << ")";
         } else if (lost) {
           os << "the equilibrium path was lost at load factor " << format("%.6g", lam)
              << ": no equilibrium was found within a load step of " << minStep

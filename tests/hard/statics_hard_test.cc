@@ -152,6 +152,21 @@ TEST_F(HardStatics, TinyTipLoadIsSolvedNotTakenForNoLoad) {
   EXPECT_NEAR(row(onlyPose(a).positions, 200).z(), -exact, 0.005 * exact);
 }
 
+// --time-limit bounds a static solve: the 20,001-vertex cantilever needs
+// about 2 s; stopped after 0.2 s it is not converged, says so, and archives
+// a finite state (its initial guess, the rest state).
+TEST_F(HardStatics, TimeLimitStopsAStaticSolve) {
+  Scene s = straightRod(20001, 1.0, 0.02, kIssueMaterial);
+  s.gravity = Vec3(0, 0, -kG);
+  s.poses[0].clamped.push_back({0});
+  const RunResult run = simulate(s, "--time-limit 0.2");
+  EXPECT_EQ(run.status, 1) << run.err;
+  const Archive a = archive();
+  EXPECT_EQ(a.status, "not_converged");
+  EXPECT_TRUE(archiveFinite(a));
+  EXPECT_NE(rootMessage().find("time limit"), std::string::npos) << rootMessage();
+}
+
 // Issue 13 item 4c: 10,000 vertices in 3D (twist on), light tip load. Before:
 // not converged after 80-183 s (and > 600 s here): pivots were floored at
 // 1e-10 of the largest (5.6e12 at 4,000 vertices), so the tip pivot (9.0)
