@@ -29,6 +29,7 @@ struct SimulateOptions {
   double duration = 0.0;
   double fps = 30.0;
   std::optional<double> ramp;  // s; default: see rampFor
+  double timeLimit = 0.0;      // s per pose; 0: none
   DynamicsOptions dynamics;
 };
 
@@ -50,8 +51,24 @@ std::string number(double x) {
   return buf;
 }
 
+// Allowed ranges of the solver flags (usage errors name the flag, the value
+// and the range). --tol: relative force residual; --max-iter: Newton
+// iterations per load step (static), per time step (--dynamic), or force
+// evaluations (relaxation).
+constexpr double kMinTol = 1e-16, kMaxTol = 0.1;
+constexpr int kMaxNewtonIter = 10000, kMaxStepNewtonIter = 1000, kMaxRelaxIter = 100000000;
+
 void checkOptions(const SimulateOptions& o, const CLI::App& app) {
   auto given = [&](const char* flag) { return app.count(flag) > 0; };
+  if (given("--tol") && !(o.newton.tolerance >= kMinTol && o.newton.tolerance <= kMaxTol))
+    throw InputError("simulate: --tol " + number(o.newton.tolerance) + " is out of its allowed range [" +
+                     number(kMinTol) + ", " + number(kMaxTol) + "] (force residual relative to the load scale)");
+  if (given("--max-iter")) {
+    const int hi = o.dynamic ? kMaxStepNewtonIter : o.staticSolver == "relaxation" ? kMaxRelaxIter : kMaxNewtonIter;
+    if (o.newton.maxIterations < 1 || o.newton.maxIterations > hi)
+      throw InputError("simulate: --max-iter " + std::to_string(o.newton.maxIterations) +
+                       " is out of its allowed range [1, " + std::to_string(hi) + "]");
+  }
   if (!o.dynamic) {
     for (const char* flag : {"--duration", "--fps", "--max-step", "--ramp"})
       if (given(flag)) throw InputError(std::string("simulate: ") + flag + " needs --dynamic");
@@ -59,15 +76,25 @@ void checkOptions(const SimulateOptions& o, const CLI::App& app) {
     if (!given("--duration")) throw InputError("simulate: --dynamic needs --duration SECONDS");
     if (given("--static-solver")) throw InputError("simulate: --static-solver does not apply to --dynamic");
     if (!(o.duration > 0) || !std::isfinite(o.duration))
-      throw InputError("simulate: --duration must be a positive number of seconds, got " + number(o.duration));
+      throw InputError("simulate: --duration must be a finite positive number of seconds, allowed range (0, inf), got " +
+                       number(o.duration));
     if (!(o.fps > 0) || !std::isfinite(o.fps))
-      throw InputError("simulate: --fps must be positive, got " + number(o.fps));
-    if (!(o.dynamics.maxStep > 0) || !std::isfinite(o.dynamics.maxStep))
-      throw InputError("simulate: --max-step must be a positive number of seconds, got " + number(o.dynamics.maxStep));
+      throw InputError("simulate: --fps must be a finite positive number, allowed range (0, inf), got " + number(o.fps));
+    if (o.duration * o.fps > kMaxFrames)
+      throw InputError("simulate: --duration x --fps asks for " + number(o.duration * o.fps) +
+                       " frames; allowed range: at most 1e6 frames (lower --fps or --duration)");
+    // Every time step of a run counts against DynamicsOptions::maxSteps: a
+    // largest step that cannot cover the duration within them is absurd.
+    const double smallest = o.duration / static_cast<double>(o.dynamics.maxSteps);
+    if (!(o.dynamics.maxStep >= smallest) || !std::isfinite(o.dynamics.maxStep))
+      throw InputError("simulate: --max-step " + number(o.dynamics.maxStep) + " is out of its allowed range [" +
+                       number(smallest) + ", inf) seconds for --duration " + number(o.duration) + " (at most " +
+                       std::to_string(o.dynamics.maxSteps) + " time steps)");
     if (o.ramp && (!(*o.ramp >= 0) || !std::isfinite(*o.ramp)))
-      throw InputError("simulate: --ramp must be a non-negative number of seconds, got " + number(*o.ramp));
-    if (o.duration * o.fps > kMaxFrames) throw InputError("simulate: --duration x --fps asks for more than 1e6 frames");
-    if (std::string why = o.dynamics.isValid(); !why.empty()) throw InputError("simulate: " + why);
+      throw InputError("simulate: --ramp must be a finite non-negative number of seconds, allowed range [0, inf), got " +
+                       number(*o.ramp));
+    if (std::string why = checkDynamicRun(o.dynamics, o.duration, o.fps, kMaxFrames); !why.empty())
+      throw InputError("simulate: " + why);
   }
   if (std::string why = o.newton.isValid(); !why.empty()) throw InputError("simulate: " + why);
   if (o.staticSolver == "relaxation")
@@ -93,6 +120,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
          "--max-iter", opts->newton.maxIterations,
          "Newton iterations per load step (relaxation: iterations; --dynamic: Newton iterations per time step)")
       ->capture_default_str();
+  app->add_option("--time-limit", opts->timeLimit,
+                  "wall-clock seconds per pose, after which the solve stops with what it reached (default: none)");
   app->add_flag("--dynamic", opts->dynamic, "simulate the motion from rest (backward Euler, adaptive steps)");
   app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)");
   app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")->capture_default_str();
@@ -109,6 +138,12 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     const bool maxIterGiven = app->count("--max-iter") > 0;
     const bool tolGiven = app->count("--tol") > 0;
     o.relaxation.tolerance = o.newton.tolerance;
+    if (app->count("--time-limit") > 0) {
+      if (!(o.timeLimit > 0) || !std::isfinite(o.timeLimit))
+        throw InputError("simulate: --time-limit must be a finite positive number of seconds, allowed range (0, inf), "
+                         "got " + number(o.timeLimit));
+      o.newton.timeLimit = o.relaxation.timeLimit = o.dynamics.timeLimit = o.timeLimit;
+    }
     if (maxIterGiven) o.relaxation.maxIterations = o.newton.maxIterations;
     if (o.dynamic) {
       if (tolGiven) o.dynamics.tolerance = o.newton.tolerance;
@@ -145,10 +180,15 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     // Every pose goes through the archive builders shared with `optimize`
     // (apps/cli_common.hh); the progress line reads the archived values.
     const bool twist = model.effects().has(Effect::Twist);
+    // Why each pose that did not converge stopped (e.g. the load factor its
+    // archived positions are in equilibrium at), for the root `message`.
+    std::string reasons;
     auto addPose = [&](int p, const std::vector<Vec3>& positions, const Eigen::VectorXd& edgeTwist,
                        const PoseSolveSummary& solve, const std::string& details, const std::string& reason) {
       a.poses.push_back(makeArchivePose(scene.poses[p].name, positions, twist ? &edgeTwist : nullptr,
                                         scene.poses[p].target, solve));
+      if (!reason.empty())
+        reasons += (reasons.empty() ? "" : "; ") + ("pose '" + scene.poses[p].name + "': " + reason);
       if (quiet) return;
       const ArchivePose& r = a.poses.back();
       char line[512];
@@ -189,7 +229,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         DynamicFrames frames;
         const DynamicsReport rep = simulateDynamics(sys, design, masses, dyn, o.duration, o.fps, frames, progress);
         PoseSolveSummary solve;
-        solve.status = rep.ok ? "converged" : "failed";
+        // A step below its minimum fails; a step budget or time limit stops early.
+        solve.status = rep.ok ? "converged" : archiveStatus(rep.outcome);
         solve.iterations = rep.newtonIterations;
         solve.residualNorm = rep.lastResidual;
         solve.timeSeconds = rep.wallSeconds;
@@ -227,7 +268,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       a.extraRootAttributes["solver"] = "newton";
       auto progress = [&](int p, const PoseResult& pr) {
         PoseSolveSummary solve;
-        solve.status = pr.report.converged ? "converged" : "not_converged";
+        // Non-finite loads or states, and problems without a solution, fail.
+        solve.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
         solve.iterations = pr.report.iterations;
         solve.residualNorm = pr.report.residualNorm;
         solve.timeSeconds = pr.report.timeSeconds;
@@ -249,6 +291,7 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       anyFailed = anyFailed || r.status == "failed";
     }
     a.status = allOk ? "converged" : anyFailed ? "failed" : "not_converged";
+    if (!reasons.empty()) a.extraRootAttributes["message"] = reasons;
     setRestAndRadii(a, design.restPositions, design.radii);
     writeArchive(a, o.output);
     if (!quiet) std::cerr << "wrote " << o.output << " (" << a.status << ")\n";

@@ -1,6 +1,7 @@
 #include "solver/equilibrium.hh"
 
 #include "model/stiffness.hh"
+#include "solver/modified_ldlt.hh"
 
 #include <Eigen/SparseCholesky>
 

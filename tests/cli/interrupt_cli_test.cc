@@ -35,7 +35,7 @@ const std::string kSourceDir = RODMESH_SOURCE_DIR;
 // A long run: the cantilever's motion over 200 s in steps of at most 1 ms
 // (several seconds of work), with one progress line per frame.
 const std::vector<std::string> kLongSimulate = {
-    "simulate", "cantilever.json", "-o", "out.h5", "--dynamic", "--duration", "200", "--max-step", "0.001"};
+    "simulate", "cantilever.json", "-o", "out.h5", "--dynamic", "--duration", "90", "--max-step", "0.001"};
 const std::vector<std::string> kSimulate = {"simulate", "cantilever.json", "-o", "out.h5", "-q"};
 const std::vector<std::string> kOptimize = {"optimize", "optimize_small.json", "-o", "out.h5", "--method", "reduced"};
 

