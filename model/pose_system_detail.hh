@@ -248,8 +248,8 @@ struct BendK {
       constexpr int M = D + (TW ? 1 : 0);
       const int slots0[4] = {0, 1, D == 3 ? 2 : 2 * D, 2 * D};
       const int slots1[4] = {D, D + 1, D == 3 ? D + 2 : 2 * D + 1, 2 * D + 1};
-      const energies::EdgeState<S> a = edgeStateLifted<S, M>(x, 0, TW ? 2 * D : -1, off0, k.chartT0, k.chartD0, slots0);
-      const energies::EdgeState<S> b = edgeStateLifted<S, M>(x, D, TW ? 2 * D + 1 : -1, off1, k.chartT1, k.chartD1, slots1);
+      const EdgeState<S> a = edgeStateLifted<S, M>(x, 0, TW ? 2 * D : -1, off0, k.chartT0, k.chartD0, slots0);
+      const EdgeState<S> b = edgeStateLifted<S, M>(x, D, TW ? 2 * D + 1 : -1, off1, k.chartT1, k.chartD1, slots1);
       return energies::bendTwistFromStates(a, b, th0, th1, rest, k);
     } else {
       const V3<S> e0 = embed<D>(x, off0, *B);
@@ -262,14 +262,14 @@ struct BendK {
   // its twist (x[theta], or none), differentiated over M = D (+1) variables
   // and lifted to the stencil's variable slots.
   template <class S, int M>
-  energies::EdgeState<S> edgeStateLifted(const S* x, int first, int theta, const Vec3& off, const Vec3& chartT,
+  EdgeState<S> edgeStateLifted(const S* x, int first, int theta, const Vec3& off, const Vec3& chartT,
                                          const Vec3& chartD, const int* slots) const {
     using Hm = ad::Hess<M, double>;
     constexpr int N = ad::IsHessDouble<S>::n;
     Hm w[3];
     for (int i = 0; i < D; ++i) w[i] = Hm::variable(x[first + i].v, i);
     const Hm th = theta >= 0 ? Hm::variable(x[theta].v, D) : Hm(0.0);
-    const energies::EdgeState<Hm> st = energies::edgeState(embed<D>(w, off, *B), th, chartT, chartD);
+    const EdgeState<Hm> st = edgeState(embed<D>(w, off, *B), th, chartT, chartD);
     auto liftV = [&](const V3<Hm>& v) {
       return V3<S>(ad::lift<N, M>(v.x, slots), ad::lift<N, M>(v.y, slots), ad::lift<N, M>(v.z, slots));
     };
@@ -333,6 +333,264 @@ template <int D, bool TW, int K>
 struct KernelSize<ConnectionK<D, TW, K>> { static constexpr int nx = K * D + (TW ? K : 0), np = 5 * K + 2; };
 
 
+
+// ------------------------------------------------------------------------
+// Joint (u, p) derivatives of one kernel over all its local variables (the x
+// part first, then the p part): evalJoint. The reference is evalLocal with
+// every local variable seeded in one Hess<N> (generic, used for the small
+// kernels). Bend-twist and connections, which dominate, instead differentiate
+// each piece over the few variables it depends on (an edge's state over that
+// edge's D (+1) locals, the rest quantities over the p locals, in double: a
+// direction only enters through x) and combine the pieces exactly by the
+// chain rule (ad::lift, ad::compose). tests/model/joint_kernel_test.cc checks
+// every such kernel against the reference.
+
+// A kernel's local variable i as a T: value x, directional part dir[i].
+template <class T>
+T seedValue(double x, const double* dir, int i) {
+  if constexpr (std::is_same_v<T, ad::Dual>) return ad::Dual(x, dir ? dir[i] : 0.0);
+  else return x;
+}
+
+template <int N>
+struct Iota {
+  int s[N];
+  constexpr Iota(int first) : s() {
+    for (int i = 0; i < N; ++i) s[i] = first + i;
+  }
+};
+
+// The state of one edge from its D position locals (at x[first]) and its
+// twist local (x[theta], or none), differentiated over those M = D (+1)
+// locals and lifted into a Hess<N, T> whose variable slots[a] is local a.
+template <int N, int D, bool TW, class T>
+EdgeState<ad::Hess<N, T>> edgeStateJoint(const LocalStencil& ls, const double* xdir, int first, int theta,
+                                                   const Vec3& off, const Mat32& B, const Vec3& chartT,
+                                                   const Vec3& chartD, const int* slots) {
+  constexpr int M = D + (TW ? 1 : 0);
+  using Hm = ad::Hess<M, T>;
+  Hm w[3];
+  for (int i = 0; i < D; ++i) w[i] = Hm::variable(seedValue<T>(ls.xv[first + i], xdir, first + i), i);
+  Hm th(0.0);
+  if constexpr (TW) th = Hm::variable(seedValue<T>(ls.xv[theta], xdir, theta), D);
+  const EdgeState<Hm> st = edgeState(embed<D>(w, off, B), th, chartT, chartD);
+  auto liftV = [&](const V3<Hm>& v) {
+    using S = ad::Hess<N, T>;
+    return V3<S>(ad::lift<N, M>(v.x, slots), ad::lift<N, M>(v.y, slots), ad::lift<N, M>(v.z, slots));
+  };
+  return {liftV(st.t), liftV(st.u), liftV(st.m1), liftV(st.m2)};
+}
+
+template <int N, class T, class Kern>
+ad::Hess<N, T> evalJoint(const Kern& k, const LocalStencil& ls, const double* xdir) {
+  return evalLocal<N, T, true>(k, ls, xdir);
+}
+
+// Bend-twist: the current side (bendTwistCurrent: 5 scalars over the x
+// locals, from the edge states) and the rest side (bendTwistRestShape: 5
+// scalars over the rest edges E0, E1, from their frames; the stiffness
+// coefficients over E0, E1 and the radii) meet only in bendTwistCombine,
+// evaluated over those 13 scalars and the two twists, then composed.
+template <int N, class T, int D, bool TW>
+ad::Hess<N, T> evalJoint(const BendK<D, TW>& k, const LocalStencil& ls, const double* xdir) {
+  constexpr int NX = KernelSize<BendK<D, TW>>::nx, NP = KernelSize<BendK<D, TW>>::np;
+  static_assert(N == NX + NP && NP == 8, "bend-twist: x and p locals");
+  using HX = ad::Hess<NX, T>;
+  const int slots0[4] = {0, 1, D == 3 ? 2 : 2 * D, 2 * D};
+  const int slots1[4] = {D, D + 1, D == 3 ? D + 2 : 2 * D + 1, 2 * D + 1};
+  const EdgeState<HX> a =
+      edgeStateJoint<NX, D, TW, T>(ls, xdir, 0, 2 * D, k.off0, *k.B, k.k.chartT0, k.k.chartD0, slots0);
+  const EdgeState<HX> b =
+      edgeStateJoint<NX, D, TW, T>(ls, xdir, D, 2 * D + 1, k.off1, *k.B, k.k.chartT1, k.k.chartD1, slots1);
+  const energies::BendTwistCurrent<HX> cur = energies::bendTwistCurrent(a, b, k.k);
+
+  // Rest side, in double (a direction never enters the design): each rest
+  // frame over its own edge (p locals 0..2, 3..5), lifted to both edges.
+  using H3 = ad::Hess<3, double>;
+  using H6 = ad::Hess<6, double>;
+  using H8 = ad::Hess<8, double>;
+  FrameT<H6> F[2];
+  H6 len[2];
+  for (int e = 0; e < 2; ++e) {
+    const V3<H3> E(H3::variable(ls.pv[3 * e], 0), H3::variable(ls.pv[3 * e + 1], 1), H3::variable(ls.pv[3 * e + 2], 2));
+    const FrameT<H3> f = restFrameOf(E, e == 0 ? k.k.n0 : k.k.n1);
+    const int sl[3] = {3 * e, 3 * e + 1, 3 * e + 2};
+    auto liftV = [&](const V3<H3>& v) {
+      return V3<H6>(ad::lift<6, 3>(v.x, sl), ad::lift<6, 3>(v.y, sl), ad::lift<6, 3>(v.z, sl));
+    };
+    F[e] = {liftV(f.t), liftV(f.d1), liftV(f.d2)};
+    len[e] = ad::lift<6, 3>(norm(E), sl);
+  }
+  energies::BendTwistRest<H6> shape;
+  energies::bendTwistRestShape(F[0], F[1], shape);
+  // Stiffness coefficients over (l, r_t, r_n), composed into the p locals.
+  const H6 l = energies::bendTwistRestLength(len[0], len[1]);
+  energies::BendTwistRest<H3> st;
+  energies::bendTwistRestStiffness(H3::variable(l.v, 0), H3::variable(ls.pv[6], 1), H3::variable(ls.pv[7], 2), k.k,
+                                   st);
+  static const double oneD = 1.0;
+  const ad::Inner<double> lr[3] = {ad::inner(l, 0), {&oneD, nullptr, 1, 6}, {&oneD, nullptr, 1, 7}};
+  const H8 kc[3] = {ad::compose<8, 3, double>(st.kIn, lr), ad::compose<8, 3, double>(st.kOut, lr),
+                    ad::compose<8, 3, double>(st.kTwist, lr)};
+  // As T (a no-op for double).
+  static constexpr Iota<6> id6(0);
+  static constexpr Iota<8> id8(0);
+  const H6* sh[5] = {&shape.wa1, &shape.wa2, &shape.wb1, &shape.wb2, &shape.psiRest};
+  ad::Hess<6, T> shT[5];
+  ad::Hess<8, T> kT[3];
+  for (int j = 0; j < 5; ++j) shT[j] = ad::liftAs<6, 6, T>(*sh[j], id6.s);
+  for (int j = 0; j < 3; ++j) kT[j] = ad::liftAs<8, 8, T>(kc[j], id8.s);
+
+  // Outer variables: cur (5), theta0, theta1, shape (5: wa1 wa2 wb1 wb2
+  // psiRest), kIn, kOut, kTwist.
+  constexpr int M = 15;
+  using HO = ad::Hess<M, T>;
+  const HX* cs[5] = {&cur.wa1, &cur.wa2, &cur.wb1, &cur.wb2, &cur.psi};
+  HO y[M];
+  for (int j = 0; j < 5; ++j) y[j] = HO::variable(cs[j]->v, j);
+  y[5] = HO::variable(TW ? seedValue<T>(ls.xv[2 * D], xdir, 2 * D) : T(0.0), 5);
+  y[6] = HO::variable(TW ? seedValue<T>(ls.xv[2 * D + 1], xdir, 2 * D + 1) : T(0.0), 6);
+  for (int j = 0; j < 5; ++j) y[7 + j] = HO::variable(shT[j].v, 7 + j);
+  for (int j = 0; j < 3; ++j) y[12 + j] = HO::variable(kT[j].v, 12 + j);
+  const energies::BendTwistCurrent<HO> cw{y[0], y[1], y[2], y[3], y[4]};
+  const energies::BendTwistRest<HO> rw{y[7], y[8], y[9], y[10], y[12], y[13], y[14], y[11]};
+  const HO f = energies::bendTwistCombine(cw, y[5], y[6], rw, k.k);
+
+  static const T one(1.0);
+  ad::Inner<T> in[M];
+  for (int j = 0; j < 5; ++j) in[j] = ad::inner(*cs[j], 0);
+  in[5] = {&one, nullptr, TW ? 1 : 0, 2 * D};
+  in[6] = {&one, nullptr, TW ? 1 : 0, 2 * D + 1};
+  for (int j = 0; j < 5; ++j) in[7 + j] = ad::inner(shT[j], NX);
+  for (int j = 0; j < 3; ++j) in[12 + j] = ad::inner(kT[j], NX);
+  return ad::compose<N, M, T>(f, in);
+}
+
+// Connection (K incident edges): differentiated in three layers and composed.
+//  1. The fit A (connectionFit) is a sum of products of an edge-state
+//     component (over that edge's D (+1) locals) and a rest quantity
+//     (wT Minv^T T etc., over the p locals): accumulated exactly into the
+//     stencil's N variables (ad::addProduct).
+//  2. R = polar(A) over A's 9 entries.
+//  3. Each edge's coupling energy (connectionEdgeEnergy) over R, its own x
+//     locals, its rest edge and the radii of its two ends (20 variables in
+//     3D with twist), composed from R to A and summed over the edges as a
+//     function of (A, the N locals); A is composed out last.
+template <int N, class T, int D, bool TW, int K>
+ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls, const double* xdir) {
+  constexpr int NX = KernelSize<ConnectionK<D, TW, K>>::nx, NP = KernelSize<ConnectionK<D, TW, K>>::np;
+  static_assert(N == NX + NP, "connection: x and p locals");
+  constexpr int MX = D + (TW ? 1 : 0);  // locals of one edge
+  // Edge states, each over its own locals (slots: x locals of edge i).
+  using HM = ad::Hess<MX, T>;
+  EdgeState<HM> st[K];
+  int xslots[K][4];
+  for (int i = 0; i < K; ++i) {
+    const int theta = D * K + i;
+    const int sl[4] = {D * i, D * i + 1, D == 3 ? D * i + 2 : theta, theta};
+    for (int j = 0; j < 4; ++j) xslots[i][j] = sl[j];
+    HM w[3];
+    for (int j = 0; j < D; ++j) w[j] = HM::variable(seedValue<T>(ls.xv[D * i + j], xdir, D * i + j), j);
+    HM th(0.0);
+    if constexpr (TW) th = HM::variable(seedValue<T>(ls.xv[theta], xdir, theta), D);
+    st[i] = edgeState(embed<D>(w, k.off[i], *k.B), th, k.k.chartT[i], k.k.chartD[i]);
+  }
+
+  // 1. A, from the rest quantities over the p locals (double).
+  using HP = ad::Hess<NP, double>;
+  HP p[NP];
+  for (int i = 0; i < NP; ++i) p[i] = HP::variable(ls.pv[i], i);
+  V3<HP> E[K];
+  for (int i = 0; i < K; ++i) E[i] = V3<HP>(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+  const energies::ConnectionRest<HP, K> rest = energies::connectionRest<HP, K>(E, p + 3 * K, k.k);
+  using S = ad::Hess<N, T>;
+  energies::M3<S> A;  // zero
+  for (int i = 0; i < K; ++i) {
+    const V3<HM>* xs[3] = {&st[i].t, &st[i].m1, &st[i].m2};
+    const V3<HP>* fs[3] = {&rest.F[i].t, &rest.F[i].d1, &rest.F[i].d2};
+    const HP* ws[3] = {&rest.wT[i], &rest.wN[i], &rest.wN[i]};
+    for (int q = 0; q < 3; ++q)
+      for (int c = 0; c < 3; ++c) {
+        // (w F Minv)_c = w sum_d F_d Minv_dc, the rest side of column c of A.
+        const HP G = *ws[q] * ((*fs[q])[0] * rest.Minv.a[0][c] + (*fs[q])[1] * rest.Minv.a[1][c] +
+                               (*fs[q])[2] * rest.Minv.a[2][c]);
+        for (int r = 0; r < 3; ++r) ad::addProduct<N, MX, NP, T>(A.a[r][c], (*xs[q])[r], xslots[i], G, NX);
+      }
+  }
+
+  // 2. R over A.
+  using H9 = ad::Hess<9, T>;
+  energies::M3<H9> a9;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) a9.a[r][c] = H9::variable(A.a[r][c].v, 3 * r + c);
+  const energies::M3<H9> R9 = energies::polarRotationDirect(a9);
+
+  // 3. Edge energies over (R, edge locals, E_i, radii of the two ends).
+  constexpr int ME = 9 + MX + 7;
+  using HE = ad::Hess<ME, T>;
+  using H3 = ad::Hess<3, double>;
+  using H7 = ad::Hess<7, double>;
+  constexpr int NY = 9 + N;  // (A, the N locals)
+  ad::Hess<NY, T> acc;
+  static const T one(1.0);
+  for (int i = 0; i < K; ++i) {
+    HE Rv[9];
+    for (int m = 0; m < 9; ++m) Rv[m] = HE::variable(R9.a[m / 3][m % 3].v, m);
+    energies::M3<HE> R;
+    for (int m = 0; m < 9; ++m) R.a[m / 3][m % 3] = Rv[m];
+    // Edge state (outer variables 9 .. 9 + MX - 1 are the edge's locals).
+    int es[MX];
+    for (int j = 0; j < MX; ++j) es[j] = 9 + j;
+    auto liftX = [&](const V3<HM>& v) {
+      return V3<HE>(ad::lift<ME, MX>(v.x, es), ad::lift<ME, MX>(v.y, es), ad::lift<ME, MX>(v.z, es));
+    };
+    const EdgeState<HE> sti{liftX(st[i].t), liftX(st[i].u), liftX(st[i].m1), liftX(st[i].m2)};
+    HE th(0.0);
+    if constexpr (TW) th = HE::variable(seedValue<T>(ls.xv[D * K + i], xdir, D * K + i), 9 + D);
+    // Rest frame over E_i (outer 9 + MX .. + 2); stiffness over E_i and the
+    // radii of the connection vertex and the far vertex (outer + 3 .. + 6).
+    const int pe = 9 + MX;
+    const V3<H3> Ei(H3::variable(ls.pv[3 * i], 0), H3::variable(ls.pv[3 * i + 1], 1),
+                    H3::variable(ls.pv[3 * i + 2], 2));
+    const FrameT<H3> f3 = restFrameOf(Ei, k.k.n[i]);
+    const int fs[3] = {pe, pe + 1, pe + 2};
+    auto liftF = [&](const V3<H3>& v) {
+      return V3<HE>(ad::liftAs<ME, 3, T>(v.x, fs), ad::liftAs<ME, 3, T>(v.y, fs), ad::liftAs<ME, 3, T>(v.z, fs));
+    };
+    const FrameT<HE> F{liftF(f3.t), liftF(f3.d1), liftF(f3.d2)};
+    H7 q[7];
+    for (int j = 0; j < 3; ++j) q[j] = H7::variable(ls.pv[3 * i + j], j);
+    q[3] = H7::variable(ls.pv[3 * K], 3);
+    q[4] = H7::variable(ls.pv[3 * K + 1], 4);
+    q[5] = H7::variable(ls.pv[3 * K + 2 + 2 * i], 5);
+    q[6] = H7::variable(ls.pv[3 * K + 3 + 2 * i], 6);
+    const energies::ConnectionEdgeStiffness<H7> ks = energies::connectionEdgeStiffness(
+        norm(V3<H7>(q[0], q[1], q[2])), q[3], q[4], q[5], q[6], k.k.youngModulus, k.k.shearModulus);
+    const int ps[7] = {pe, pe + 1, pe + 2, pe + 3, pe + 4, pe + 5, pe + 6};
+    const HE kIn = ad::liftAs<ME, 7, T>(ks.kIn, ps), kOut = ad::liftAs<ME, 7, T>(ks.kOut, ps),
+             kTwist = ad::liftAs<ME, 7, T>(ks.kTwist, ps);
+    const HE e = energies::connectionEdgeEnergy(R, sti, th, F, kIn, kOut, kTwist, k.k.bend, k.k.twist);
+    // From R to A (outer variables 0..8), then into (A, the N locals).
+    ad::Inner<T> in[ME];
+    for (int m = 0; m < 9; ++m) in[m] = ad::inner(R9.a[m / 3][m % 3], 0);
+    for (int j = 9; j < ME; ++j) in[j] = {&one, nullptr, 1, j};
+    const HE eA = ad::compose<ME, ME, T>(e, in);
+    int ys[ME];
+    for (int m = 0; m < 9; ++m) ys[m] = m;
+    for (int j = 0; j < MX; ++j) ys[9 + j] = 9 + xslots[i][j];
+    for (int j = 0; j < 3; ++j) ys[pe + j] = 9 + NX + 3 * i + j;
+    ys[pe + 3] = 9 + NX + 3 * K;
+    ys[pe + 4] = 9 + NX + 3 * K + 1;
+    ys[pe + 5] = 9 + NX + 3 * K + 2 + 2 * i;
+    ys[pe + 6] = 9 + NX + 3 * K + 3 + 2 * i;
+    ad::addLifted(acc, eA, ys);
+  }
+  // A composed out: the energy over the N locals.
+  ad::Inner<T> in[NY];
+  for (int m = 0; m < 9; ++m) in[m] = ad::inner(A.a[m / 3][m % 3], 0);
+  for (int j = 0; j < N; ++j) in[9 + j] = {&one, nullptr, 1, j};
+  return ad::compose<N, NY, T>(acc, in);
+}
 
 // ------------------------------------------------------------------------
 // Joint (u, p) view of a stencil: the global variables it touches (unknowns

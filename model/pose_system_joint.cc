@@ -167,7 +167,7 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
       for (int k = 0; k < ls.nx; ++k)
         for (int t = 0; t < m.nterms[k]; ++t)
           if (!m.isP[m.tg[k][t]]) dir[k] += m.tc[k][t] * (*v)[m.index[m.tg[k][t]]];
-    const ad::Hess<N, T> r = evalLocal<N, T, true>(kern, ls, derivative ? dir : nullptr);
+    const ad::Hess<N, T> r = evalJoint<N, T>(kern, ls, derivative ? dir : nullptr);
     out.energy += partOf(r.v, derivative);
     GlobalBlock gb;
     toGlobals<N, T>(r, m, ls.nx + ls.np, derivative, gb);
