@@ -471,6 +471,17 @@ Hess<N, T> compose(const Hess<M, T>& f, const Inner<T>* y) {
   return r;
 }
 
+// The order of derivatives a scalar type carries: 0 for double, 1 for Dual
+// and Grad<N>, 2 for Hess<N>, one more with Dual entries.
+template <class S>
+struct Order : std::integral_constant<int, 0> {};
+template <>
+struct Order<Dual> : std::integral_constant<int, 1> {};
+template <int N, class T>
+struct Order<Grad<N, T>> : std::integral_constant<int, 1 + Order<T>::value> {};
+template <int N, class T>
+struct Order<Hess<N, T>> : std::integral_constant<int, 2 + Order<T>::value> {};
+
 template <class S>
 struct IsHess : std::false_type {};
 template <int N, class T>

@@ -226,9 +226,10 @@ class PoseSystem {
   std::vector<Stencil> stencils_;
   Eigen::SparseMatrix<double> hessian_;
 
-  // Joint patterns (built on first use): per stencil (gravity included) the
-  // value slot of each (global i, global j) pair of its JointMap, in one
-  // index space [Huu values | Hup values | Hpp values], -1 for none.
+  // Joint patterns (built on first use): per stencil (gravity included), for
+  // each lower-triangle pair (i >= j) of its JointMap's globals, the value
+  // slots of the pair and of its transpose (block << 28 | index into Huu,
+  // Hup or Hpp values; -1 for none).
   mutable bool jointReady_ = false;
   mutable JointDerivatives jointPattern_;
   mutable std::vector<int> jointSlots_;

@@ -10,6 +10,7 @@
 #include "model/energies/stretch.hh"
 #include "model/pose_system.hh"
 
+#include <algorithm>
 #include <type_traits>
 
 namespace rodmesh::detail {
@@ -386,6 +387,51 @@ ad::Hess<N, T> evalJoint(const Kern& k, const LocalStencil& ls, const double* xd
   return evalLocal<N, T, true>(k, ls, xdir);
 }
 
+// Stretch: the current edge length (over the x locals) and the rest length
+// and stiffness (over the p locals) meet in stretchEnergyOfLength.
+template <int N, class T, int D, bool TW>
+ad::Hess<N, T> evalJoint(const StretchK<D, TW>& k, const LocalStencil& ls, const double* xdir) {
+  constexpr int NX = KernelSize<StretchK<D, TW>>::nx, NP = KernelSize<StretchK<D, TW>>::np;
+  static_assert(N == NX + NP && NP == 7, "stretch: x and p locals");
+  using HX = ad::Hess<NX, T>;
+  HX w[3];
+  for (int i = 0; i < D; ++i) w[i] = HX::variable(seedValue<T>(ls.xv[i], xdir, i), i);
+  const HX len = norm(embed<D>(w, k.off, *k.B));
+  using HP = ad::Hess<NP, double>;
+  HP p[NP];
+  for (int i = 0; i < NP; ++i) p[i] = HP::variable(ls.pv[i], i);
+  const energies::StretchRest<HP> rest = energies::stretchRest(V3<HP>(p[0], p[1], p[2]), p[3], p[4], p[5], p[6], k.k);
+  static constexpr Iota<NP> id(0);
+  const ad::Hess<NP, T> L = ad::liftAs<NP, NP, T>(rest.length, id.s), c = ad::liftAs<NP, NP, T>(rest.halfKOverL, id.s);
+  using HO = ad::Hess<3, T>;
+  const HO y0 = HO::variable(len.v, 0);
+  const energies::StretchRest<HO> r{HO::variable(L.v, 1), HO::variable(c.v, 2)};
+  const HO f = energies::stretchEnergyOfLength(y0, r);
+  const ad::Inner<T> in[3] = {ad::inner(len, 0), ad::inner(L, NX), ad::inner(c, NX)};
+  return ad::compose<N, 3, T>(f, in);
+}
+
+// Gravity: linear in the positions; the mass over the p locals.
+template <int N, class T, int D, bool TW>
+ad::Hess<N, T> evalJoint(const GravityK<D, TW>& k, const LocalStencil& ls, const double* xdir) {
+  constexpr int NX = KernelSize<GravityK<D, TW>>::nx, NP = KernelSize<GravityK<D, TW>>::np;
+  static_assert(N == NX + NP && NP == 7, "gravity: x and p locals");
+  using HX = ad::Hess<NX, T>;
+  HX w[2 * D];
+  for (int i = 0; i < 2 * D; ++i) w[i] = HX::variable(seedValue<T>(ls.xv[i], xdir, i), i);
+  const HX height = energies::gravityHeight(embed<D>(w, k.offA, *k.B), embed<D>(w + D, k.offB, *k.B), k.k);
+  using HP = ad::Hess<NP, double>;
+  HP p[NP];
+  for (int i = 0; i < NP; ++i) p[i] = HP::variable(ls.pv[i], i);
+  static constexpr Iota<NP> id(0);
+  const ad::Hess<NP, T> m =
+      ad::liftAs<NP, NP, T>(energies::gravityMass(V3<HP>(p[0], p[1], p[2]), p[3], p[4], p[5], p[6], k.k), id.s);
+  using HO = ad::Hess<2, T>;
+  const HO f = energies::gravityOf(HO::variable(m.v, 0), HO::variable(height.v, 1));
+  const ad::Inner<T> in[2] = {ad::inner(m, NX), ad::inner(height, 0)};
+  return ad::compose<N, 2, T>(f, in);
+}
+
 // Bend-twist: the current side (bendTwistCurrent: 5 scalars over the x
 // locals, from the edge states) and the rest side (bendTwistRestShape: 5
 // scalars over the rest edges E0, E1, from their frames; the stiffness
@@ -467,10 +513,11 @@ ad::Hess<N, T> evalJoint(const BendK<D, TW>& k, const LocalStencil& ls, const do
 }
 
 // Connection (K incident edges): differentiated in three layers and composed.
-//  1. The fit A (connectionFit) is a sum of products of an edge-state
-//     component (over that edge's D (+1) locals) and a rest quantity
-//     (wT Minv^T T etc., over the p locals): accumulated exactly into the
-//     stencil's N variables (ad::addProduct).
+//  1. The fit A = B Minv (connectionFit): B is a sum of products of an
+//     edge-state component (over that edge's D (+1) locals) and a rest
+//     quantity (wT T etc., over the p locals), accumulated exactly into the
+//     stencil's N variables (ad::addProduct); the rest frames and stiffnesses
+//     over their own rest edge and radii, lifted.
 //  2. R = polar(A) over A's 9 entries.
 //  3. Each edge's coupling energy (connectionEdgeEnergy) over R, its own x
 //     locals, its rest edge and the radii of its two ends (20 variables in
@@ -495,28 +542,60 @@ ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
     if constexpr (TW) th = HM::variable(seedValue<T>(ls.xv[theta], xdir, theta), D);
     st[i] = edgeState(embed<D>(w, k.off[i], *k.B), th, k.k.chartT[i], k.k.chartD[i]);
   }
+  // Rest frames over each rest edge E_i; stiffnesses over (E_i, radii of the
+  // connection vertex, radii of the far vertex): p locals pslots[i].
+  using H3 = ad::Hess<3, double>;
+  using H7 = ad::Hess<7, double>;
+  FrameT<H3> F3[K];
+  energies::ConnectionEdgeStiffness<H7> ks[K];
+  int pslots[K][7];
+  for (int i = 0; i < K; ++i) {
+    const V3<H3> Ei(H3::variable(ls.pv[3 * i], 0), H3::variable(ls.pv[3 * i + 1], 1),
+                    H3::variable(ls.pv[3 * i + 2], 2));
+    F3[i] = restFrameOf(Ei, k.k.n[i]);
+    const int sl[7] = {3 * i, 3 * i + 1, 3 * i + 2, 3 * K, 3 * K + 1, 3 * K + 2 + 2 * i, 3 * K + 3 + 2 * i};
+    H7 q[7];
+    for (int j = 0; j < 7; ++j) {
+      pslots[i][j] = sl[j];
+      q[j] = H7::variable(ls.pv[sl[j]], j);
+    }
+    ks[i] = energies::connectionEdgeStiffness(norm(V3<H7>(q[0], q[1], q[2])), q[3], q[4], q[5], q[6],
+                                              k.k.youngModulus, k.k.shearModulus);
+  }
 
-  // 1. A, from the rest quantities over the p locals (double).
+  // 1. The fit's rest side over the p locals (double), then B and A.
   using HP = ad::Hess<NP, double>;
-  HP p[NP];
-  for (int i = 0; i < NP; ++i) p[i] = HP::variable(ls.pv[i], i);
-  V3<HP> E[K];
-  for (int i = 0; i < K; ++i) E[i] = V3<HP>(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-  const energies::ConnectionRest<HP, K> rest = energies::connectionRest<HP, K>(E, p + 3 * K, k.k);
+  energies::ConnectionRest<HP, K> rest;
+  HP trB[K], beta[K];
+  for (int i = 0; i < K; ++i) {
+    const int* e3 = pslots[i];
+    auto liftV = [&](const V3<H3>& v) {
+      return V3<HP>(ad::lift<NP, 3>(v.x, e3), ad::lift<NP, 3>(v.y, e3), ad::lift<NP, 3>(v.z, e3));
+    };
+    rest.F[i] = {liftV(F3[i].t), liftV(F3[i].d1), liftV(F3[i].d2)};
+    trB[i] = ad::lift<NP, 7>(ks[i].trB, pslots[i]);
+    beta[i] = ad::lift<NP, 7>(ks[i].beta, pslots[i]);
+  }
+  energies::connectionFitWeights(trB, beta, rest);
   using S = ad::Hess<N, T>;
-  energies::M3<S> A;  // zero
+  energies::M3<S> B;  // zero
   for (int i = 0; i < K; ++i) {
     const V3<HM>* xs[3] = {&st[i].t, &st[i].m1, &st[i].m2};
     const V3<HP>* fs[3] = {&rest.F[i].t, &rest.F[i].d1, &rest.F[i].d2};
     const HP* ws[3] = {&rest.wT[i], &rest.wN[i], &rest.wN[i]};
     for (int q = 0; q < 3; ++q)
       for (int c = 0; c < 3; ++c) {
-        // (w F Minv)_c = w sum_d F_d Minv_dc, the rest side of column c of A.
-        const HP G = *ws[q] * ((*fs[q])[0] * rest.Minv.a[0][c] + (*fs[q])[1] * rest.Minv.a[1][c] +
-                               (*fs[q])[2] * rest.Minv.a[2][c]);
-        for (int r = 0; r < 3; ++r) ad::addProduct<N, MX, NP, T>(A.a[r][c], (*xs[q])[r], xslots[i], G, NX);
+        const HP G = (*fs[q])[c] * *ws[q];
+        for (int r = 0; r < 3; ++r) ad::addProduct<N, MX, NP, T>(B.a[r][c], (*xs[q])[r], xslots[i], G, NX);
       }
   }
+  static constexpr Iota<NP> ps(NX);
+  S Minv[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Minv[r][c] = ad::liftAs<N, NP, T>(rest.Minv.a[r][c], ps.s);
+  energies::M3<S> A;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) A.a[r][c] = B.a[r][0] * Minv[0][c] + B.a[r][1] * Minv[1][c] + B.a[r][2] * Minv[2][c];
 
   // 2. R over A.
   using H9 = ad::Hess<9, T>;
@@ -528,8 +607,6 @@ ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
   // 3. Edge energies over (R, edge locals, E_i, radii of the two ends).
   constexpr int ME = 9 + MX + 7;
   using HE = ad::Hess<ME, T>;
-  using H3 = ad::Hess<3, double>;
-  using H7 = ad::Hess<7, double>;
   constexpr int NY = 9 + N;  // (A, the N locals)
   ad::Hess<NY, T> acc;
   static const T one(1.0);
@@ -550,25 +627,14 @@ ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
     // Rest frame over E_i (outer 9 + MX .. + 2); stiffness over E_i and the
     // radii of the connection vertex and the far vertex (outer + 3 .. + 6).
     const int pe = 9 + MX;
-    const V3<H3> Ei(H3::variable(ls.pv[3 * i], 0), H3::variable(ls.pv[3 * i + 1], 1),
-                    H3::variable(ls.pv[3 * i + 2], 2));
-    const FrameT<H3> f3 = restFrameOf(Ei, k.k.n[i]);
     const int fs[3] = {pe, pe + 1, pe + 2};
     auto liftF = [&](const V3<H3>& v) {
       return V3<HE>(ad::liftAs<ME, 3, T>(v.x, fs), ad::liftAs<ME, 3, T>(v.y, fs), ad::liftAs<ME, 3, T>(v.z, fs));
     };
-    const FrameT<HE> F{liftF(f3.t), liftF(f3.d1), liftF(f3.d2)};
-    H7 q[7];
-    for (int j = 0; j < 3; ++j) q[j] = H7::variable(ls.pv[3 * i + j], j);
-    q[3] = H7::variable(ls.pv[3 * K], 3);
-    q[4] = H7::variable(ls.pv[3 * K + 1], 4);
-    q[5] = H7::variable(ls.pv[3 * K + 2 + 2 * i], 5);
-    q[6] = H7::variable(ls.pv[3 * K + 3 + 2 * i], 6);
-    const energies::ConnectionEdgeStiffness<H7> ks = energies::connectionEdgeStiffness(
-        norm(V3<H7>(q[0], q[1], q[2])), q[3], q[4], q[5], q[6], k.k.youngModulus, k.k.shearModulus);
-    const int ps[7] = {pe, pe + 1, pe + 2, pe + 3, pe + 4, pe + 5, pe + 6};
-    const HE kIn = ad::liftAs<ME, 7, T>(ks.kIn, ps), kOut = ad::liftAs<ME, 7, T>(ks.kOut, ps),
-             kTwist = ad::liftAs<ME, 7, T>(ks.kTwist, ps);
+    const FrameT<HE> F{liftF(F3[i].t), liftF(F3[i].d1), liftF(F3[i].d2)};
+    const int ps7[7] = {pe, pe + 1, pe + 2, pe + 3, pe + 4, pe + 5, pe + 6};
+    const HE kIn = ad::liftAs<ME, 7, T>(ks[i].kIn, ps7), kOut = ad::liftAs<ME, 7, T>(ks[i].kOut, ps7),
+             kTwist = ad::liftAs<ME, 7, T>(ks[i].kTwist, ps7);
     const HE e = energies::connectionEdgeEnergy(R, sti, th, F, kIn, kOut, kTwist, k.k.bend, k.k.twist);
     // From R to A (outer variables 0..8), then into (A, the N locals).
     ad::Inner<T> in[ME];
@@ -578,11 +644,7 @@ ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
     int ys[ME];
     for (int m = 0; m < 9; ++m) ys[m] = m;
     for (int j = 0; j < MX; ++j) ys[9 + j] = 9 + xslots[i][j];
-    for (int j = 0; j < 3; ++j) ys[pe + j] = 9 + NX + 3 * i + j;
-    ys[pe + 3] = 9 + NX + 3 * K;
-    ys[pe + 4] = 9 + NX + 3 * K + 1;
-    ys[pe + 5] = 9 + NX + 3 * K + 2 + 2 * i;
-    ys[pe + 6] = 9 + NX + 3 * K + 3 + 2 * i;
+    for (int j = 0; j < 7; ++j) ys[pe + j] = 9 + NX + pslots[i][j];
     ad::addLifted(acc, eA, ys);
   }
   // A composed out: the energy over the N locals.
@@ -668,20 +730,22 @@ inline void buildJointMap(const LocalStencil& ls, const BuildCtx& c, JointMap& m
   }
 }
 
-// Dense gradient and Hessian of one stencil over its globals.
+// Gradient and lower-triangle Hessian (packed, row-major: (i, j), i >= j, at
+// i (i + 1) / 2 + j) of one stencil over its globals.
 struct GlobalBlock {
   double g[kMaxGlobal];
-  double H[kMaxGlobal][kMaxGlobal];
+  double L[kMaxGlobal * (kMaxGlobal + 1) / 2];
 };
 
 // Maps a kernel result over local variables onto the stencil's globals
-// (part: value or directional derivative of each entry).
+// (part: value or directional derivative of each entry): g = T^T g_local,
+// H = T^T H_local T with T the JointMap's local-to-global combinations;
+// only H's lower triangle is formed (an ordered contribution to H(r, c)
+// counts when r >= c).
 template <int N, class T>
 void toGlobals(const ad::Hess<N, T>& r, const JointMap& m, int nLocal, bool derivative, GlobalBlock& out) {
-  for (int i = 0; i < m.ng; ++i) {
-    out.g[i] = 0.0;
-    for (int j = 0; j < m.ng; ++j) out.H[i][j] = 0.0;
-  }
+  std::fill(out.g, out.g + m.ng, 0.0);
+  std::fill(out.L, out.L + m.ng * (m.ng + 1) / 2, 0.0);
   for (int k = 0; k < nLocal; ++k) {
     const double gk = partOf(r.g[k], derivative);
     if (gk == 0.0) continue;
@@ -691,12 +755,23 @@ void toGlobals(const ad::Hess<N, T>& r, const JointMap& m, int nLocal, bool deri
     for (int l = 0; l <= k; ++l) {
       const double h = partOf(r.h[ad::Hess<N, T>::hidx(k, l)], derivative);
       if (h == 0.0) continue;
-      for (int a = 0; a < m.nterms[k]; ++a)
+      for (int a = 0; a < m.nterms[k]; ++a) {
+        const int gr = m.tg[k][a];
+        const double ch = m.tc[k][a] * h;
         for (int b = 0; b < m.nterms[l]; ++b) {
-          const double v = m.tc[k][a] * m.tc[l][b] * h;
-          out.H[m.tg[k][a]][m.tg[l][b]] += v;
-          if (k != l) out.H[m.tg[l][b]][m.tg[k][a]] += v;
+          const int gc = m.tg[l][b];
+          const double v = ch * m.tc[l][b];
+          if (k == l) {
+            // (a, b) and (b, a) are both visited: keep the lower one.
+            if (gr >= gc) out.L[gr * (gr + 1) / 2 + gc] += v;
+          } else if (gr == gc) {
+            out.L[gr * (gr + 1) / 2 + gr] += 2.0 * v;  // (k, l) and (l, k)
+          } else {
+            const int hi = std::max(gr, gc), lo = std::min(gr, gc);
+            out.L[hi * (hi + 1) / 2 + lo] += v;
+          }
         }
+      }
     }
 }
 

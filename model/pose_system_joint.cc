@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <exception>
 #include <functional>
+#include <stdexcept>
 #include <pthread.h>
 
 namespace rodmesh {
@@ -66,6 +67,9 @@ Eigen::SparseMatrix<double> patternFrom(std::vector<std::vector<int>>& cols, int
   return m;
 }
 
+// Joint value slots are stored as block << kSlotShift | index.
+constexpr int kSlotShift = 28;
+
 int slotOf(const Eigen::SparseMatrix<double>& m, int r, int c) {
   const int* b = m.innerIndexPtr() + m.outerIndexPtr()[c];
   const int* e = m.innerIndexPtr() + m.outerIndexPtr()[c + 1];
@@ -120,21 +124,35 @@ void PoseSystem::buildJointPattern() const {
   jp.Huu = patternFrom(uu, nDofs_);
   jp.Hup = patternFrom(up, nDofs_);
   jp.Hpp = patternFrom(pp, P);
+  if (std::max({jp.Huu.nonZeros(), jp.Hup.nonZeros(), jp.Hpp.nonZeros()}) >= (Eigen::Index(1) << kSlotShift))
+    throw std::length_error("joint derivative patterns too large for their slot encoding");
   jointUU_ = static_cast<int>(jp.Huu.nonZeros());
   jointUP_ = static_cast<int>(jp.Hup.nonZeros());
   jointSlots_.clear();
   jointStencils_.clear();
+  // Per stencil, per lower-triangle pair (i >= j) of its globals, two value
+  // slots (the pair and its transpose, -1 for none), encoded as
+  // block << kSlotShift | index, block 0: Huu, 1: Hup, 2: Hpp.
+  auto enc = [](int block, int index) { return index < 0 ? -1 : (block << kSlotShift) | index; };
   for (const Globals& s : stencils) {
     const int ng = static_cast<int>(s.index.size());
     jointStencils_.push_back({static_cast<int>(jointSlots_.size()), ng});
     for (int i = 0; i < ng; ++i)
-      for (int j = 0; j < ng; ++j) {
+      for (int j = 0; j <= i; ++j) {
         const int a = s.index[i], b = s.index[j];
-        int slot = -1;
-        if (!s.isP[i] && !s.isP[j]) slot = slotOf(jp.Huu, a, b);
-        else if (!s.isP[i] && s.isP[j]) slot = jointUU_ + slotOf(jp.Hup, a, b);
-        else if (s.isP[i] && s.isP[j] && a >= b) slot = jointUU_ + jointUP_ + slotOf(jp.Hpp, a, b);
-        jointSlots_.push_back(slot);
+        int s0 = -1, s1 = -1;
+        if (!s.isP[i] && !s.isP[j]) {
+          s0 = enc(0, slotOf(jp.Huu, a, b));
+          if (i != j) s1 = enc(0, slotOf(jp.Huu, b, a));
+        } else if (!s.isP[i] && s.isP[j]) {
+          s0 = enc(1, slotOf(jp.Hup, a, b));
+        } else if (s.isP[i] && !s.isP[j]) {
+          s0 = enc(1, slotOf(jp.Hup, b, a));
+        } else {
+          s0 = enc(2, slotOf(jp.Hpp, std::max(a, b), std::min(a, b)));
+        }
+        jointSlots_.push_back(s0);
+        jointSlots_.push_back(s1);
       }
   }
   filter_ = savedFilter;
@@ -156,7 +174,7 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
   BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
   const bool derivative = v != nullptr;
   double* vals[3] = {out.Huu.valuePtr(), out.Hup.valuePtr(), out.Hpp.valuePtr()};
-  const int base[3] = {0, jointUU_, jointUU_ + jointUP_};
+  constexpr int kSlotMask = (1 << kSlotShift) - 1;
   auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
     using K = std::decay_t<decltype(kern)>;
     constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
@@ -176,13 +194,14 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
     }
     const Stencil& st = jointStencils_[sidx];
     const int* slots = jointSlots_.data() + st.offset;
-    for (int i = 0; i < m.ng; ++i)
-      for (int j = 0; j < m.ng; ++j) {
-        const int s = slots[i * m.ng + j];
-        if (s < 0 || gb.H[i][j] == 0.0) continue;
-        const int blk = s >= base[2] ? 2 : (s >= base[1] ? 1 : 0);
-        vals[blk][s - base[blk]] += gb.H[i][j];
-      }
+    const int nl = m.ng * (m.ng + 1) / 2;
+    for (int e = 0; e < nl; ++e) {
+      const double h = gb.L[e];
+      if (h == 0.0) continue;
+      const int s0 = slots[2 * e], s1 = slots[2 * e + 1];
+      if (s0 >= 0) vals[s0 >> kSlotShift][s0 & kSlotMask] += h;
+      if (s1 >= 0) vals[s1 >> kSlotShift][s1 & kSlotMask] += h;
+    }
   };
   forEachStencil<D, TW, true>(ctx, visit);
 

@@ -20,10 +20,11 @@
 //
 // R is differentiated exactly to third order: R0 = polar(A) is computed in
 // double (SVD), then R = R0 Q(w) with Q the Cayley rotation, where w solves
-// axial(skew(Q(w)^T R0^T A)) = 0 (R^T A symmetric) by three chord-Newton
-// steps from w = 0 in the AD scalar. Each step multiplies the error by O(|dA|),
-// so the result agrees with the true polar factor to O(|dA|^4): its first,
-// second and third derivatives are exact.
+// axial(skew(Q(w)^T R0^T A)) = 0 (R^T A symmetric) by chord-Newton steps
+// from w = 0 in the AD scalar. Each step multiplies the error by O(|dA|), so
+// after k steps the result agrees with the true polar factor to
+// O(|dA|^(k+1)): its derivatives up to order k are exact. The scalar's order
+// of derivatives picks k (ad::Order: 2 for Hess<N>, 3 for Hess<N, Dual>).
 //
 // Local variables: x = e_i (3 each), theta_i (each, with twist); p = E_i (3
 // each), radii of the connection vertex (2), radii of each far vertex (2 each).
@@ -101,22 +102,12 @@ ConnectionEdgeStiffness<P> connectionEdgeStiffness(const P& len, const P& rtC, c
   return {bin / (P(4.0) * l), bout / (P(4.0) * l), tw / (P(2.0) * l), bin + bout, tw};
 }
 
-// radii: [connection vertex, far vertex of edge 0, ..., far vertex of edge K-1],
-// each [r_t, r_n]; the coupling of edge i uses the mean of its two ends.
+// The fit's weights and Minv (into r) from the rest frames r.F and each
+// edge's trB and beta (ConnectionEdgeStiffness).
 template <class P, int K>
-ConnectionRest<P, K> connectionRest(const V3<P>* E, const P* radii, const ConnectionConst<K>& c) {
-  ConnectionRest<P, K> r;
+void connectionFitWeights(const P* trB, const P* beta, ConnectionRest<P, K>& r) {
   P sumA(0.0), sumB(0.0);
-  P trB[K], beta[K];
   for (int i = 0; i < K; ++i) {
-    r.F[i] = restFrameOf(E[i], c.n[i]);
-    const ConnectionEdgeStiffness<P> k = connectionEdgeStiffness(norm(E[i]), radii[0], radii[1], radii[2 + 2 * i],
-                                                                 radii[3 + 2 * i], c.youngModulus, c.shearModulus);
-    r.kIn[i] = k.kIn;
-    r.kOut[i] = k.kOut;
-    r.kTwist[i] = k.kTwist;
-    trB[i] = k.trB;
-    beta[i] = k.beta;
     sumA = sumA + trB[i];
     sumB = sumB + beta[i];
   }
@@ -128,10 +119,31 @@ ConnectionRest<P, K> connectionRest(const V3<P>* E, const P* radii, const Connec
     r.wN[i] = beta[i] / sumB;
     const FrameT<P>& F = r.F[i];
     for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b)
+      for (int b = 0; b <= a; ++b)
         M.a[a][b] = M.a[a][b] + r.wT[i] * F.t[a] * F.t[b] + r.wN[i] * (F.d1[a] * F.d1[b] + F.d2[a] * F.d2[b]);
   }
+  for (int a = 0; a < 3; ++a)
+    for (int b = a + 1; b < 3; ++b) M.a[a][b] = M.a[b][a];  // symmetric
   r.Minv = inverse3(M);
+}
+
+// radii: [connection vertex, far vertex of edge 0, ..., far vertex of edge K-1],
+// each [r_t, r_n]; the coupling of edge i uses the mean of its two ends.
+template <class P, int K>
+ConnectionRest<P, K> connectionRest(const V3<P>* E, const P* radii, const ConnectionConst<K>& c) {
+  ConnectionRest<P, K> r;
+  P trB[K], beta[K];
+  for (int i = 0; i < K; ++i) {
+    r.F[i] = restFrameOf(E[i], c.n[i]);
+    const ConnectionEdgeStiffness<P> k = connectionEdgeStiffness(norm(E[i]), radii[0], radii[1], radii[2 + 2 * i],
+                                                                 radii[3 + 2 * i], c.youngModulus, c.shearModulus);
+    r.kIn[i] = k.kIn;
+    r.kOut[i] = k.kOut;
+    r.kTwist[i] = k.kTwist;
+    trB[i] = k.trB;
+    beta[i] = k.beta;
+  }
+  connectionFitWeights(trB, beta, r);
   return r;
 }
 
@@ -152,6 +164,12 @@ M3<S> polarRotationDirect(const M3<S>& A) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) A0(i, j) = ad::value(A.a[i][j]);
   const Eigen::Matrix3d R0 = polarRotation(A0);
+  if constexpr (ad::Order<S>::value == 0) {  // a value: R0 itself
+    M3<S> R;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) R.a[i][j] = S(R0(i, j));
+    return R;
+  }
   // M = R0^T A.
   M3<S> M;
   for (int i = 0; i < 3; ++i)
@@ -171,11 +189,10 @@ M3<S> polarRotationDirect(const M3<S>& A) {
   J.a[2][0] = J.a[2][0] - S(0.5) * k1;
   J.a[2][1] = J.a[2][1] + S(0.5) * k0;
   const M3<S> Jinv = inverse3(J);
-  V3<S> w(S(0.0), S(0.0), S(0.0));
-  M3<S> Q;
-  for (int step = 0; step < 4; ++step) {
-    // Cayley rotation with first-order term [w]: c = w / 2,
-    // Q = ((1 - c.c) I + 2 c c^T + 2 [c]) / (1 + c.c).
+  // Cayley rotation with first-order term [w]: c = w / 2,
+  // Q = ((1 - c.c) I + 2 c c^T + 2 [c]) / (1 + c.c).
+  auto cayley = [](const V3<S>& w) {
+    M3<S> Q;
     const V3<S> c = S(0.5) * w;
     const S cc = dot(c, c);
     const S inv = S(1.0) / (S(1.0) + cc);
@@ -190,15 +207,27 @@ M3<S> polarRotationDirect(const M3<S>& A) {
     Q.a[2][1] = Q.a[2][1] + S(2.0) * c.x;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) Q.a[i][j] = Q.a[i][j] * inv;
-    if (step == 3) break;
+    return Q;
+  };
+  // One chord step per order of derivatives S carries (the first from
+  // w = 0, where Q = I).
+  constexpr int kSteps = ad::Order<S>::value;
+  V3<S> w(S(0.0), S(0.0), S(0.0));
+  for (int step = 0; step < kSteps; ++step) {
     // G = axial(skew(Q^T M)).
     M3<S> QM;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) QM.a[i][j] = Q.a[0][i] * M.a[0][j] + Q.a[1][i] * M.a[1][j] + Q.a[2][i] * M.a[2][j];
+    if (step == 0) {
+      QM = M;
+    } else {
+      const M3<S> Q = cayley(w);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) QM.a[i][j] = Q.a[0][i] * M.a[0][j] + Q.a[1][i] * M.a[1][j] + Q.a[2][i] * M.a[2][j];
+    }
     const V3<S> G(S(0.5) * (QM.a[2][1] - QM.a[1][2]), S(0.5) * (QM.a[0][2] - QM.a[2][0]),
                   S(0.5) * (QM.a[1][0] - QM.a[0][1]));
     for (int i = 0; i < 3; ++i) w[i] = w[i] - (Jinv.a[i][0] * G.x + Jinv.a[i][1] * G.y + Jinv.a[i][2] * G.z);
   }
+  const M3<S> Q = cayley(w);
   M3<S> R;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) R.a[i][j] = Q.a[0][j] * R0(i, 0) + Q.a[1][j] * R0(i, 1) + Q.a[2][j] * R0(i, 2);

@@ -1,6 +1,6 @@
 // The joint (u, p) kernel evaluations that differentiate pieces separately and
-// compose them (evalJoint for bend-twist and connections, and the composed
-// polar rotation) against the reference: the same kernel with every local
+// compose them (evalJoint for stretch, gravity, bend-twist and connections,
+// and the composed polar rotation) against the reference: the same kernel with every local
 // variable seeded in one Hess<N> (evalLocal). Values, gradients and Hessians,
 // and with a direction (T = Dual) their directional derivatives, at random
 // bent and twisted stencils, for every unknowns layout (3D / planar, with and
@@ -123,6 +123,48 @@ void expectSame(const Kern& kern, const LocalStencil& ls, Rng& rng, const std::s
 }
 
 template <int D, bool TW>
+void checkStretchAndGravity(unsigned seed) {
+  Rng rng(seed);
+  const Mat32 B = planeBasis();
+  const EdgeSample e = sampleEdge(rng, 0.4, D);
+  auto radii = [&](LocalStencil& ls) {
+    for (int v = 0; v < 2; ++v) {
+      ls.pv[ls.np++] = 0.0012 * (1.0 + 0.3 * rng());
+      ls.pv[ls.np++] = 0.0008 * (1.0 + 0.3 * rng());
+    }
+  };
+  const std::string layout = " D=" + std::to_string(D) + (TW ? " twist" : "");
+  {
+    StretchK<D, TW> kern{{2e7}, Vec3::Zero(), &B};
+    LocalStencil ls;
+    putEdge(ls, e.current, D);
+    for (int i = 0; i < 3; ++i) ls.pv[ls.np++] = e.rest[i];
+    radii(ls);
+    constexpr int N = KernelSize<StretchK<D, TW>>::nx + KernelSize<StretchK<D, TW>>::np;
+    ASSERT_EQ(ls.nx + ls.np, N);
+    expectSame<double, N>(kern, ls, rng, "stretch" + layout);
+    expectSame<Dual, N>(kern, ls, rng, "stretch" + layout);
+  }
+  {
+    GravityK<D, TW> kern;
+    kern.k.g = D == 3 ? Vec3(0.5, -2.0, -9.81) : Vec3(0.3, -9.81, 0.0);
+    kern.k.density = 1100.0;
+    kern.offA = kern.offB = Vec3::Zero();
+    kern.B = &B;
+    LocalStencil ls;
+    const Vec3 xa(0.02 * rng(), 0.02 * rng(), D == 3 ? 0.02 * rng() : 0.0);
+    putEdge(ls, xa, D);
+    putEdge(ls, xa + e.current, D);
+    for (int i = 0; i < 3; ++i) ls.pv[ls.np++] = e.rest[i];
+    radii(ls);
+    constexpr int N = KernelSize<GravityK<D, TW>>::nx + KernelSize<GravityK<D, TW>>::np;
+    ASSERT_EQ(ls.nx + ls.np, N);
+    expectSame<double, N>(kern, ls, rng, "gravity" + layout);
+    expectSame<Dual, N>(kern, ls, rng, "gravity" + layout);
+  }
+}
+
+template <int D, bool TW>
 void checkBend(unsigned seed) {
   Rng rng(seed);
   const Mat32 B = planeBasis();
@@ -191,6 +233,15 @@ void checkConnection(unsigned seed) {
   const std::string what = "connection K=" + std::to_string(K) + " D=" + std::to_string(D) + (TW ? " twist" : "");
   expectSame<double, N>(kern, ls, rng, what);
   expectSame<Dual, N>(kern, ls, rng, what);
+}
+
+TEST(JointKernels, StretchAndGravityMatchReference) {
+  for (unsigned seed : {9u, 10u}) {
+    checkStretchAndGravity<3, true>(seed);
+    checkStretchAndGravity<3, false>(seed);
+    checkStretchAndGravity<2, true>(seed);
+    checkStretchAndGravity<2, false>(seed);
+  }
 }
 
 TEST(JointKernels, BendTwistMatchesReference) {
