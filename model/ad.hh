@@ -403,16 +403,28 @@ inline void addProduct(Hess<N, T>& acc, const Hess<M, T>& x, const int* xslots, 
 }
 
 // ------------------------------------------------------------- compose ----
-// An intermediate scalar y for compose(): its gradient g and packed lower
-// Hessian h (null: zero, e.g. a variable itself) over m consecutive target
-// variables first, ..., first + m - 1.
+// An intermediate scalar y for compose(), given over target variables in up
+// to two parts, each over consecutive variables first, ..., first + m - 1
+// with its gradient g and packed lower Hessian h (null: zero, e.g. a
+// variable itself); y's Hessian has no entries between the two parts (a sum
+// of a function of some variables and a function of others).
 template <class T>
 struct Inner {
-  const T* g = nullptr;
-  const T* h = nullptr;
-  int m = 0;
-  int first = 0;
+  struct Part {
+    const T* g = nullptr;
+    const T* h = nullptr;
+    int m = 0;
+    int first = 0;
+  };
+  Part part[2];
+  Inner() = default;
+  Inner(const T* g, const T* h, int m, int first) : part{{g, h, m, first}, {}} {}
+  Inner(const Part& a, const Part& b) : part{a, b} {}
 };
+template <int M, class T>
+inline typename Inner<T>::Part innerPart(const Hess<M, T>& y, int first) {
+  return {y.g.data(), y.h.data(), M, first};
+}
 template <int M, class T>
 inline Inner<T> inner(const Hess<M, T>& y, int first) {
   return {y.g.data(), y.h.data(), M, first};
@@ -434,16 +446,17 @@ Hess<N, T> compose(const Hess<M, T>& f, const Inner<T>* y) {
   for (int k = 0; k < M; ++k) {
     const T fk = f.g[k];
     if (isZero(fk)) continue;
-    const Inner<T>& yk = y[k];
-    T* rg = r.g.data() + yk.first;
-    for (int a = 0; a < yk.m; ++a) rg[a] += fk * yk.g[a];
-    if (!yk.h) continue;
-    const T* hk = yk.h;
-    for (int a = 0; a < yk.m; ++a) {
-      const int s = yk.first + a;
-      T* rh = r.h.data() + s * (s + 1) / 2 + yk.first;
-      for (int b = 0; b <= a; ++b) rh[b] += fk * hk[b];
-      hk += a + 1;
+    for (const auto& yk : y[k].part) {
+      T* rg = r.g.data() + yk.first;
+      for (int a = 0; a < yk.m; ++a) rg[a] += fk * yk.g[a];
+      if (!yk.h) continue;
+      const T* hk = yk.h;
+      for (int a = 0; a < yk.m; ++a) {
+        const int s = yk.first + a;
+        T* rh = r.h.data() + s * (s + 1) / 2 + yk.first;
+        for (int b = 0; b <= a; ++b) rh[b] += fk * hk[b];
+        hk += a + 1;
+      }
     }
   }
   // W = f'' J (J: rows g_k over the targets), then H += J^T W (lower part).
@@ -452,21 +465,23 @@ Hess<N, T> compose(const Hess<M, T>& f, const Inner<T>* y) {
   for (int k = 0; k < M; ++k)
     for (int l = 0; l < M; ++l) {
       const T fkl = f.h[Hess<M, T>::hidx(k, l)];
-      if (isZero(fkl) || y[l].m == 0) continue;
-      row[k] = true;
-      const Inner<T>& yl = y[l];
-      T* w = W[k] + yl.first;
-      for (int a = 0; a < yl.m; ++a) w[a] += fkl * yl.g[a];
+      if (isZero(fkl)) continue;
+      for (const auto& yl : y[l].part) {
+        if (yl.m == 0) continue;
+        row[k] = true;
+        T* w = W[k] + yl.first;
+        for (int a = 0; a < yl.m; ++a) w[a] += fkl * yl.g[a];
+      }
     }
   for (int k = 0; k < M; ++k) {
     if (!row[k]) continue;
-    const Inner<T>& yk = y[k];
-    for (int a = 0; a < yk.m; ++a) {
-      const int s = yk.first + a;
-      const T ga = yk.g[a];
-      T* hs = r.h.data() + s * (s + 1) / 2;
-      for (int t = 0; t <= s; ++t) hs[t] += ga * W[k][t];
-    }
+    for (const auto& yk : y[k].part)
+      for (int a = 0; a < yk.m; ++a) {
+        const int s = yk.first + a;
+        const T ga = yk.g[a];
+        T* hs = r.h.data() + s * (s + 1) / 2;
+        for (int t = 0; t <= s; ++t) hs[t] += ga * W[k][t];
+      }
   }
   return r;
 }

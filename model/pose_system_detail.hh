@@ -436,7 +436,8 @@ ad::Hess<N, T> evalJoint(const GravityK<D, TW>& k, const LocalStencil& ls, const
 // locals, from the edge states) and the rest side (bendTwistRestShape: 5
 // scalars over the rest edges E0, E1, from their frames; the stiffness
 // coefficients over E0, E1 and the radii) meet only in bendTwistCombine,
-// evaluated over those 13 scalars and the two twists, then composed.
+// evaluated over their differences, the twist difference and the
+// stiffnesses (9 scalars), then composed.
 template <int N, class T, int D, bool TW>
 ad::Hess<N, T> evalJoint(const BendK<D, TW>& k, const LocalStencil& ls, const double* xdir) {
   constexpr int NX = KernelSize<BendK<D, TW>>::nx, NP = KernelSize<BendK<D, TW>>::np;
@@ -478,37 +479,37 @@ ad::Hess<N, T> evalJoint(const BendK<D, TW>& k, const LocalStencil& ls, const do
   const ad::Inner<double> lr[3] = {ad::inner(l, 0), {&oneD, nullptr, 1, 6}, {&oneD, nullptr, 1, 7}};
   const H8 kc[3] = {ad::compose<8, 3, double>(st.kIn, lr), ad::compose<8, 3, double>(st.kOut, lr),
                     ad::compose<8, 3, double>(st.kTwist, lr)};
-  // As T (a no-op for double).
+  // As T (a no-op for double); the shape terms negated.
   static constexpr Iota<6> id6(0);
   static constexpr Iota<8> id8(0);
   const H6* sh[5] = {&shape.wa1, &shape.wa2, &shape.wb1, &shape.wb2, &shape.psiRest};
-  ad::Hess<6, T> shT[5];
+  ad::Hess<6, T> negShape[5];
   ad::Hess<8, T> kT[3];
-  for (int j = 0; j < 5; ++j) shT[j] = ad::liftAs<6, 6, T>(*sh[j], id6.s);
+  for (int j = 0; j < 5; ++j) negShape[j] = -ad::liftAs<6, 6, T>(*sh[j], id6.s);
   for (int j = 0; j < 3; ++j) kT[j] = ad::liftAs<8, 8, T>(kc[j], id8.s);
 
-  // Outer variables: cur (5), theta0, theta1, shape (5: wa1 wa2 wb1 wb2
-  // psiRest), kIn, kOut, kTwist.
-  constexpr int M = 15;
+  // Outer variables: the differences current - rest of the four curvature
+  // components and of the reference twist (each a function of the x locals
+  // plus one of the p locals), theta1 - theta0, and the three stiffnesses;
+  // bendTwistCombine with zero rest curvature and twist is the energy.
+  constexpr int M = 9;
   using HO = ad::Hess<M, T>;
   const HX* cs[5] = {&cur.wa1, &cur.wa2, &cur.wb1, &cur.wb2, &cur.psi};
   HO y[M];
-  for (int j = 0; j < 5; ++j) y[j] = HO::variable(cs[j]->v, j);
-  y[5] = HO::variable(TW ? seedValue<T>(ls.xv[2 * D], xdir, 2 * D) : T(0.0), 5);
-  y[6] = HO::variable(TW ? seedValue<T>(ls.xv[2 * D + 1], xdir, 2 * D + 1) : T(0.0), 6);
-  for (int j = 0; j < 5; ++j) y[7 + j] = HO::variable(shT[j].v, 7 + j);
-  for (int j = 0; j < 3; ++j) y[12 + j] = HO::variable(kT[j].v, 12 + j);
+  for (int j = 0; j < 5; ++j) y[j] = HO::variable(cs[j]->v + negShape[j].v, j);
+  const T th0 = TW ? seedValue<T>(ls.xv[2 * D], xdir, 2 * D) : T(0.0);
+  const T th1 = TW ? seedValue<T>(ls.xv[2 * D + 1], xdir, 2 * D + 1) : T(0.0);
+  y[5] = HO::variable(th1 - th0, 5);
+  for (int j = 0; j < 3; ++j) y[6 + j] = HO::variable(kT[j].v, 6 + j);
   const energies::BendTwistCurrent<HO> cw{y[0], y[1], y[2], y[3], y[4]};
-  const energies::BendTwistRest<HO> rw{y[7], y[8], y[9], y[10], y[12], y[13], y[14], y[11]};
-  const HO f = energies::bendTwistCombine(cw, y[5], y[6], rw, k.k);
+  const energies::BendTwistRest<HO> rw{HO(0.0), HO(0.0), HO(0.0), HO(0.0), y[6], y[7], y[8], HO(0.0)};
+  const HO f = energies::bendTwistCombine(cw, HO(0.0), y[5], rw, k.k);
 
-  static const T one(1.0);
+  static const T dth[2] = {T(-1.0), T(1.0)};
   ad::Inner<T> in[M];
-  for (int j = 0; j < 5; ++j) in[j] = ad::inner(*cs[j], 0);
-  in[5] = {&one, nullptr, TW ? 1 : 0, 2 * D};
-  in[6] = {&one, nullptr, TW ? 1 : 0, 2 * D + 1};
-  for (int j = 0; j < 5; ++j) in[7 + j] = ad::inner(shT[j], NX);
-  for (int j = 0; j < 3; ++j) in[12 + j] = ad::inner(kT[j], NX);
+  for (int j = 0; j < 5; ++j) in[j] = {ad::innerPart(*cs[j], 0), ad::innerPart(negShape[j], NX)};
+  in[5] = {dth, nullptr, TW ? 2 : 0, 2 * D};
+  for (int j = 0; j < 3; ++j) in[6 + j] = ad::inner(kT[j], NX);
   return ad::compose<N, M, T>(f, in);
 }
 
