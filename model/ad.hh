@@ -81,6 +81,11 @@ struct Hess {
     r.g[i] = T(1.0);
     return r;
   }
+  // The same in place, on a zero Hess (no copy of the arrays).
+  void makeVariable(const T& x, int i) {
+    v = x;
+    g[i] = T(1.0);
+  }
   static constexpr int hidx(int i, int j) { return i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i; }
   const T& hess(int i, int j) const { return h[hidx(i, j)]; }
 };

@@ -74,13 +74,13 @@ ad::Hess<N, T> evalLocal(const Kern& k, const LocalStencil& ls, const double* xd
     T val;
     if constexpr (std::is_same_v<T, ad::Dual>) val = ad::Dual(ls.xv[i], xdir ? xdir[i] : 0.0);
     else val = ls.xv[i];
-    x[i] = H::variable(val, i);
+    x[i].makeVariable(val, i);
   }
   if constexpr (!Joint) {
     // Simulation: design data are constants, evaluated in double.
     return k(x, ls.pv);
   } else {
-    for (int i = 0; i < ls.np; ++i) x[nx + i] = H::variable(T(ls.pv[i]), nx + i);
+    for (int i = 0; i < ls.np; ++i) x[nx + i].makeVariable(T(ls.pv[i]), nx + i);
     return k(x, x + nx);
   }
 }
@@ -268,7 +268,7 @@ struct BendK {
     using Hm = ad::Hess<M, double>;
     constexpr int N = ad::IsHessDouble<S>::n;
     Hm w[3];
-    for (int i = 0; i < D; ++i) w[i] = Hm::variable(x[first + i].v, i);
+    for (int i = 0; i < D; ++i) w[i].makeVariable(x[first + i].v, i);
     const Hm th = theta >= 0 ? Hm::variable(x[theta].v, D) : Hm(0.0);
     const EdgeState<Hm> st = edgeState(embed<D>(w, off, *B), th, chartT, chartD);
     auto liftV = [&](const V3<Hm>& v) {
@@ -371,9 +371,9 @@ EdgeState<ad::Hess<N, T>> edgeStateJoint(const LocalStencil& ls, const double* x
   constexpr int M = D + (TW ? 1 : 0);
   using Hm = ad::Hess<M, T>;
   Hm w[3];
-  for (int i = 0; i < D; ++i) w[i] = Hm::variable(seedValue<T>(ls.xv[first + i], xdir, first + i), i);
+  for (int i = 0; i < D; ++i) w[i].makeVariable(seedValue<T>(ls.xv[first + i], xdir, first + i), i);
   Hm th(0.0);
-  if constexpr (TW) th = Hm::variable(seedValue<T>(ls.xv[theta], xdir, theta), D);
+  if constexpr (TW) th.makeVariable(seedValue<T>(ls.xv[theta], xdir, theta), D);
   const EdgeState<Hm> st = edgeState(embed<D>(w, off, B), th, chartT, chartD);
   auto liftV = [&](const V3<Hm>& v) {
     using S = ad::Hess<N, T>;
@@ -395,11 +395,11 @@ ad::Hess<N, T> evalJoint(const StretchK<D, TW>& k, const LocalStencil& ls, const
   static_assert(N == NX + NP && NP == 7, "stretch: x and p locals");
   using HX = ad::Hess<NX, T>;
   HX w[3];
-  for (int i = 0; i < D; ++i) w[i] = HX::variable(seedValue<T>(ls.xv[i], xdir, i), i);
+  for (int i = 0; i < D; ++i) w[i].makeVariable(seedValue<T>(ls.xv[i], xdir, i), i);
   const HX len = norm(embed<D>(w, k.off, *k.B));
   using HP = ad::Hess<NP, double>;
   HP p[NP];
-  for (int i = 0; i < NP; ++i) p[i] = HP::variable(ls.pv[i], i);
+  for (int i = 0; i < NP; ++i) p[i].makeVariable(ls.pv[i], i);
   const energies::StretchRest<HP> rest = energies::stretchRest(V3<HP>(p[0], p[1], p[2]), p[3], p[4], p[5], p[6], k.k);
   static constexpr Iota<NP> id(0);
   const ad::Hess<NP, T> L = ad::liftAs<NP, NP, T>(rest.length, id.s), c = ad::liftAs<NP, NP, T>(rest.halfKOverL, id.s);
@@ -418,11 +418,11 @@ ad::Hess<N, T> evalJoint(const GravityK<D, TW>& k, const LocalStencil& ls, const
   static_assert(N == NX + NP && NP == 7, "gravity: x and p locals");
   using HX = ad::Hess<NX, T>;
   HX w[2 * D];
-  for (int i = 0; i < 2 * D; ++i) w[i] = HX::variable(seedValue<T>(ls.xv[i], xdir, i), i);
+  for (int i = 0; i < 2 * D; ++i) w[i].makeVariable(seedValue<T>(ls.xv[i], xdir, i), i);
   const HX height = energies::gravityHeight(embed<D>(w, k.offA, *k.B), embed<D>(w + D, k.offB, *k.B), k.k);
   using HP = ad::Hess<NP, double>;
   HP p[NP];
-  for (int i = 0; i < NP; ++i) p[i] = HP::variable(ls.pv[i], i);
+  for (int i = 0; i < NP; ++i) p[i].makeVariable(ls.pv[i], i);
   static constexpr Iota<NP> id(0);
   const ad::Hess<NP, T> m =
       ad::liftAs<NP, NP, T>(energies::gravityMass(V3<HP>(p[0], p[1], p[2]), p[3], p[4], p[5], p[6], k.k), id.s);
@@ -496,11 +496,11 @@ ad::Hess<N, T> evalJoint(const BendK<D, TW>& k, const LocalStencil& ls, const do
   using HO = ad::Hess<M, T>;
   const HX* cs[5] = {&cur.wa1, &cur.wa2, &cur.wb1, &cur.wb2, &cur.psi};
   HO y[M];
-  for (int j = 0; j < 5; ++j) y[j] = HO::variable(cs[j]->v + negShape[j].v, j);
+  for (int j = 0; j < 5; ++j) y[j].makeVariable(cs[j]->v + negShape[j].v, j);
   const T th0 = TW ? seedValue<T>(ls.xv[2 * D], xdir, 2 * D) : T(0.0);
   const T th1 = TW ? seedValue<T>(ls.xv[2 * D + 1], xdir, 2 * D + 1) : T(0.0);
-  y[5] = HO::variable(th1 - th0, 5);
-  for (int j = 0; j < 3; ++j) y[6 + j] = HO::variable(kT[j].v, 6 + j);
+  y[5].makeVariable(th1 - th0, 5);
+  for (int j = 0; j < 3; ++j) y[6 + j].makeVariable(kT[j].v, 6 + j);
   const energies::BendTwistCurrent<HO> cw{y[0], y[1], y[2], y[3], y[4]};
   const energies::BendTwistRest<HO> rw{HO(0.0), HO(0.0), HO(0.0), HO(0.0), y[6], y[7], y[8], HO(0.0)};
   const HO f = energies::bendTwistCombine(cw, HO(0.0), y[5], rw, k.k);
@@ -520,10 +520,11 @@ ad::Hess<N, T> evalJoint(const BendK<D, TW>& k, const LocalStencil& ls, const do
 //     stencil's N variables (ad::addProduct); the rest frames and stiffnesses
 //     over their own rest edge and radii, lifted.
 //  2. R = polar(A) over A's 9 entries.
-//  3. Each edge's coupling energy (connectionEdgeEnergy) over R, its own x
-//     locals, its rest edge and the radii of its two ends (20 variables in
-//     3D with twist), composed from R to A and summed over the edges as a
-//     function of (A, the N locals); A is composed out last.
+//  3. Each edge's coupling energy (connectionEdgeEnergyOfFrame) over the
+//     connection edge's frame R F (itself over A and the rest edge), the
+//     edge's own x locals and its stiffnesses (16 variables in 3D with
+//     twist), composed and summed over the edges as a function of (A, the N
+//     locals); A is composed out last.
 template <int N, class T, int D, bool TW, int K>
 ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls, const double* xdir) {
   constexpr int NX = KernelSize<ConnectionK<D, TW, K>>::nx, NP = KernelSize<ConnectionK<D, TW, K>>::np;
@@ -538,9 +539,9 @@ ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
     const int sl[4] = {D * i, D * i + 1, D == 3 ? D * i + 2 : theta, theta};
     for (int j = 0; j < 4; ++j) xslots[i][j] = sl[j];
     HM w[3];
-    for (int j = 0; j < D; ++j) w[j] = HM::variable(seedValue<T>(ls.xv[D * i + j], xdir, D * i + j), j);
+    for (int j = 0; j < D; ++j) w[j].makeVariable(seedValue<T>(ls.xv[D * i + j], xdir, D * i + j), j);
     HM th(0.0);
-    if constexpr (TW) th = HM::variable(seedValue<T>(ls.xv[theta], xdir, theta), D);
+    if constexpr (TW) th.makeVariable(seedValue<T>(ls.xv[theta], xdir, theta), D);
     st[i] = edgeState(embed<D>(w, k.off[i], *k.B), th, k.k.chartT[i], k.k.chartD[i]);
   }
   // Rest frames over each rest edge E_i; stiffnesses over (E_i, radii of the
@@ -558,7 +559,7 @@ ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
     H7 q[7];
     for (int j = 0; j < 7; ++j) {
       pslots[i][j] = sl[j];
-      q[j] = H7::variable(ls.pv[sl[j]], j);
+      q[j].makeVariable(ls.pv[sl[j]], j);
     }
     ks[i] = energies::connectionEdgeStiffness(norm(V3<H7>(q[0], q[1], q[2])), q[3], q[4], q[5], q[6],
                                               k.k.youngModulus, k.k.shearModulus);
@@ -602,50 +603,62 @@ ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
   using H9 = ad::Hess<9, T>;
   energies::M3<H9> a9;
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) a9.a[r][c] = H9::variable(A.a[r][c].v, 3 * r + c);
+    for (int c = 0; c < 3; ++c) a9.a[r][c].makeVariable(A.a[r][c].v, 3 * r + c);
   const energies::M3<H9> R9 = energies::polarRotationDirect(a9);
 
-  // 3. Edge energies over (R, edge locals, E_i, radii of the two ends).
-  constexpr int ME = 9 + MX + 7;
-  using HE = ad::Hess<ME, T>;
+  // 3. Edge energies. Per edge, the space (edge locals x_i | A | E_i | radii
+  // of the two ends): the connection edge's frame R F over (A, E_i), the
+  // energy over (R F, x_i, stiffnesses), composed into that space and added
+  // into (A, the N locals).
+  constexpr int ME = MX + 9 + 7;
+  constexpr int MF = 9 + MX + 3;  // outer: R F, x_i, kIn, kOut, kTwist
+  using H12 = ad::Hess<12, T>;
+  using HF = ad::Hess<MF, T>;
   constexpr int NY = 9 + N;  // (A, the N locals)
   ad::Hess<NY, T> acc;
   static const T one(1.0);
+  static constexpr Iota<9> a12(0);
+  static constexpr Iota<3> e12(9);
+  static constexpr Iota<7> id7(0);
   for (int i = 0; i < K; ++i) {
-    HE Rv[9];
-    for (int m = 0; m < 9; ++m) Rv[m] = HE::variable(R9.a[m / 3][m % 3].v, m);
-    energies::M3<HE> R;
-    for (int m = 0; m < 9; ++m) R.a[m / 3][m % 3] = Rv[m];
-    // Edge state (outer variables 9 .. 9 + MX - 1 are the edge's locals).
+    // R F over (A, E_i).
+    energies::M3<H12> R;
+    for (int m = 0; m < 9; ++m) R.a[m / 3][m % 3] = ad::lift<12, 9>(R9.a[m / 3][m % 3], a12.s);
+    auto liftF = [&](const V3<H3>& v) {
+      return V3<H12>(ad::liftAs<12, 3, T>(v.x, e12.s), ad::liftAs<12, 3, T>(v.y, e12.s),
+                     ad::liftAs<12, 3, T>(v.z, e12.s));
+    };
+    const FrameT<H12> F{liftF(F3[i].t), liftF(F3[i].d1), liftF(F3[i].d2)};
+    const FrameT<H12> RF = energies::rotatedFrame(R, F);
+    const H12* rf[9] = {&RF.t.x, &RF.t.y, &RF.t.z, &RF.d1.x, &RF.d1.y, &RF.d1.z, &RF.d2.x, &RF.d2.y, &RF.d2.z};
+    // The outer function.
+    HF y[9];
+    for (int m = 0; m < 9; ++m) y[m].makeVariable(rf[m]->v, m);
+    const FrameT<HF> Fb{V3<HF>(y[0], y[1], y[2]), V3<HF>(y[3], y[4], y[5]), V3<HF>(y[6], y[7], y[8])};
     int es[MX];
     for (int j = 0; j < MX; ++j) es[j] = 9 + j;
     auto liftX = [&](const V3<HM>& v) {
-      return V3<HE>(ad::lift<ME, MX>(v.x, es), ad::lift<ME, MX>(v.y, es), ad::lift<ME, MX>(v.z, es));
+      return V3<HF>(ad::lift<MF, MX>(v.x, es), ad::lift<MF, MX>(v.y, es), ad::lift<MF, MX>(v.z, es));
     };
-    const EdgeState<HE> sti{liftX(st[i].t), liftX(st[i].u), liftX(st[i].m1), liftX(st[i].m2)};
-    HE th(0.0);
-    if constexpr (TW) th = HE::variable(seedValue<T>(ls.xv[D * K + i], xdir, D * K + i), 9 + D);
-    // Rest frame over E_i (outer 9 + MX .. + 2); stiffness over E_i and the
-    // radii of the connection vertex and the far vertex (outer + 3 .. + 6).
-    const int pe = 9 + MX;
-    const int fs[3] = {pe, pe + 1, pe + 2};
-    auto liftF = [&](const V3<H3>& v) {
-      return V3<HE>(ad::liftAs<ME, 3, T>(v.x, fs), ad::liftAs<ME, 3, T>(v.y, fs), ad::liftAs<ME, 3, T>(v.z, fs));
-    };
-    const FrameT<HE> F{liftF(F3[i].t), liftF(F3[i].d1), liftF(F3[i].d2)};
-    const int ps7[7] = {pe, pe + 1, pe + 2, pe + 3, pe + 4, pe + 5, pe + 6};
-    const HE kIn = ad::liftAs<ME, 7, T>(ks[i].kIn, ps7), kOut = ad::liftAs<ME, 7, T>(ks[i].kOut, ps7),
-             kTwist = ad::liftAs<ME, 7, T>(ks[i].kTwist, ps7);
-    const HE e = energies::connectionEdgeEnergy(R, sti, th, F, kIn, kOut, kTwist, k.k.bend, k.k.twist);
-    // From R to A (outer variables 0..8), then into (A, the N locals).
-    ad::Inner<T> in[ME];
-    for (int m = 0; m < 9; ++m) in[m] = ad::inner(R9.a[m / 3][m % 3], 0);
-    for (int j = 9; j < ME; ++j) in[j] = {&one, nullptr, 1, j};
-    const HE eA = ad::compose<ME, ME, T>(e, in);
+    const EdgeState<HF> sti{liftX(st[i].t), liftX(st[i].u), liftX(st[i].m1), liftX(st[i].m2)};
+    HF th(0.0);
+    if constexpr (TW) th.makeVariable(seedValue<T>(ls.xv[D * K + i], xdir, D * K + i), 9 + D);
+    const ad::Hess<7, T> kT[3] = {ad::liftAs<7, 7, T>(ks[i].kIn, id7.s), ad::liftAs<7, 7, T>(ks[i].kOut, id7.s),
+                                  ad::liftAs<7, 7, T>(ks[i].kTwist, id7.s)};
+    HF kv[3];
+    for (int j = 0; j < 3; ++j) kv[j].makeVariable(kT[j].v, 9 + MX + j);
+    const HF e =
+        energies::connectionEdgeEnergyOfFrame(Fb, sti, th, kv[0], kv[1], kv[2], k.k.bend, k.k.twist);
+    // Into (x_i | A | E_i | radii).
+    ad::Inner<T> in[MF];
+    for (int m = 0; m < 9; ++m) in[m] = ad::inner(*rf[m], MX);
+    for (int j = 0; j < MX; ++j) in[9 + j] = {&one, nullptr, 1, j};
+    for (int j = 0; j < 3; ++j) in[9 + MX + j] = ad::inner(kT[j], MX + 9);
+    const ad::Hess<ME, T> eA = ad::compose<ME, MF, T>(e, in);
     int ys[ME];
-    for (int m = 0; m < 9; ++m) ys[m] = m;
-    for (int j = 0; j < MX; ++j) ys[9 + j] = 9 + xslots[i][j];
-    for (int j = 0; j < 7; ++j) ys[pe + j] = 9 + NX + pslots[i][j];
+    for (int j = 0; j < MX; ++j) ys[j] = 9 + xslots[i][j];
+    for (int m = 0; m < 9; ++m) ys[MX + m] = m;
+    for (int j = 0; j < 7; ++j) ys[MX + 9 + j] = 9 + NX + pslots[i][j];
     ad::addLifted(acc, eA, ys);
   }
   // A composed out: the energy over the N locals.
@@ -733,6 +746,13 @@ inline void buildJointMap(const LocalStencil& ls, const BuildCtx& c, JointMap& m
 
 // Gradient and lower-triangle Hessian (packed, row-major: (i, j), i >= j, at
 // i (i + 1) / 2 + j) of one stencil over its globals.
+struct RowOffsets {
+  int s[kMaxGlobal];
+  constexpr RowOffsets() : s() {
+    for (int i = 0; i < kMaxGlobal; ++i) s[i] = i * (i + 1) / 2;
+  }
+};
+inline constexpr RowOffsets kRowOffset{};
 struct GlobalBlock {
   double g[kMaxGlobal];
   double L[kMaxGlobal * (kMaxGlobal + 1) / 2];
@@ -752,28 +772,39 @@ void toGlobals(const ad::Hess<N, T>& r, const JointMap& m, int nLocal, bool deri
     if (gk == 0.0) continue;
     for (int t = 0; t < m.nterms[k]; ++t) out.g[m.tg[k][t]] += m.tc[k][t] * gk;
   }
-  for (int k = 0; k < nLocal; ++k)
-    for (int l = 0; l <= k; ++l) {
-      const double h = partOf(r.h[ad::Hess<N, T>::hidx(k, l)], derivative);
-      if (h == 0.0) continue;
-      for (int a = 0; a < m.nterms[k]; ++a) {
-        const int gr = m.tg[k][a];
-        const double ch = m.tc[k][a] * h;
-        for (int b = 0; b < m.nterms[l]; ++b) {
+  const int* row = kRowOffset.s;
+  const auto* h = r.h.data();
+  for (int k = 0; k < nLocal; ++k) {
+    const int nk = m.nterms[k];
+    const int* gk = m.tg[k];
+    const double* ck = m.tc[k];
+    for (int l = 0; l < k; ++l, ++h) {
+      const double hkl = partOf(*h, derivative);
+      if (hkl == 0.0) continue;
+      const int nl = m.nterms[l];
+      for (int a = 0; a < nk; ++a) {
+        const int gr = gk[a];
+        const double ch = ck[a] * hkl;
+        for (int b = 0; b < nl; ++b) {
           const int gc = m.tg[l][b];
           const double v = ch * m.tc[l][b];
-          if (k == l) {
-            // (a, b) and (b, a) are both visited: keep the lower one.
-            if (gr >= gc) out.L[gr * (gr + 1) / 2 + gc] += v;
-          } else if (gr == gc) {
-            out.L[gr * (gr + 1) / 2 + gr] += 2.0 * v;  // (k, l) and (l, k)
-          } else {
-            const int hi = std::max(gr, gc), lo = std::min(gr, gc);
-            out.L[hi * (hi + 1) / 2 + lo] += v;
-          }
+          // (k, l) and (l, k): the lower one of H(gr, gc), H(gc, gr) twice
+          // on the diagonal, once otherwise.
+          if (gr > gc) out.L[row[gr] + gc] += v;
+          else if (gr < gc) out.L[row[gc] + gr] += v;
+          else out.L[row[gr] + gr] += 2.0 * v;
         }
       }
     }
+    // (k, k): (a, b) and (b, a) are both visited; keep the lower one.
+    const double hkk = partOf(*h++, derivative);
+    if (hkk == 0.0) continue;
+    for (int a = 0; a < nk; ++a) {
+      const double ch = ck[a] * hkk;
+      for (int b = 0; b < nk; ++b)
+        if (gk[a] >= gk[b]) out.L[row[gk[a]] + gk[b]] += ch * ck[b];
+    }
+  }
 }
 
 }  // namespace rodmesh::detail

@@ -291,24 +291,36 @@ M3<S> connectionFit(const EdgeState<S>* st, const ConnectionRest<P, K>& r) {
   return A;
 }
 
-// The coupling energy of one incident edge (state st, twist th, rest frame F,
-// stiffnesses) with the connection edge of frame R F.
+// The coupling energy of one incident edge (state st, twist th, stiffnesses)
+// with the connection edge of frame Fb = R F (F: the edge's rest frame).
 template <class S, class Q>
-S connectionEdgeEnergy(const M3<S>& R, const EdgeState<S>& st, const S& th, const FrameT<Q>& F, const Q& kIn,
-                       const Q& kOut, const Q& kTwist, bool bend, bool twist) {
-  const V3<S> tb = rotate(R, F.t), d1b = rotate(R, F.d1), d2b = rotate(R, F.d2);
+S connectionEdgeEnergyOfFrame(const FrameT<S>& Fb, const EdgeState<S>& st, const S& th, const Q& kIn,
+                              const Q& kOut, const Q& kTwist, bool bend, bool twist) {
   S energy(0.0);
   if (bend) {
-    const V3<S> kb = curvatureBinormal(tb, st.t);
-    const S wf1 = dot(kb, d2b), wf2 = dot(kb, d1b);
+    const V3<S> kb = curvatureBinormal(Fb.t, st.t);
+    const S wf1 = dot(kb, Fb.d2), wf2 = dot(kb, Fb.d1);
     const S we1 = dot(kb, st.m2), we2 = dot(kb, st.m1);
     energy = (wf1 * wf1 + we1 * we1) * kIn + (wf2 * wf2 + we2 * we2) * kOut;
   }
   if (twist) {
-    const S tau = th + signedAngle(parallelTransport(tb, st.t, d1b), st.u, st.t);
+    const S tau = th + signedAngle(parallelTransport(Fb.t, st.t, Fb.d1), st.u, st.t);
     energy = energy + tau * tau * kTwist;
   }
   return energy;
+}
+
+// The connection edge's frame R F.
+template <class S, class Q>
+FrameT<S> rotatedFrame(const M3<S>& R, const FrameT<Q>& F) {
+  return {rotate(R, F.t), rotate(R, F.d1), rotate(R, F.d2)};
+}
+
+// The same with the connection's rotation R and the edge's rest frame F.
+template <class S, class Q>
+S connectionEdgeEnergy(const M3<S>& R, const EdgeState<S>& st, const S& th, const FrameT<Q>& F, const Q& kIn,
+                       const Q& kOut, const Q& kTwist, bool bend, bool twist) {
+  return connectionEdgeEnergyOfFrame(rotatedFrame(R, F), st, th, kIn, kOut, kTwist, bend, twist);
 }
 
 // The energy from the incident edges' current states and twists.
