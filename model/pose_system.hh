@@ -228,13 +228,14 @@ class PoseSystem {
 
   // Joint patterns (built on first use): per stencil (gravity included), for
   // each lower-triangle pair (i >= j) of its JointMap's globals, the value
-  // slots of the pair and of its transpose (block << 28 | index into Huu,
-  // Hup or Hpp values; -1 for none).
+  // slot it adds to (block << 28 | index into the values of Huu (its lower
+  // triangle), Hup or Hpp; -1 for none); Huu's upper triangle is then
+  // copied from the lower one: (upper index, lower index) pairs.
   mutable bool jointReady_ = false;
   mutable JointDerivatives jointPattern_;
   mutable std::vector<int> jointSlots_;
   mutable std::vector<Stencil> jointStencils_;
-  mutable int jointUU_ = 0, jointUP_ = 0;
+  mutable std::vector<std::pair<int, int>> jointUpperFromLower_;
 };
 
 }  // namespace rodmesh

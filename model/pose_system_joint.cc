@@ -178,13 +178,11 @@ void PoseSystem::buildJointPattern() const {
   jp.Hpp = patternFrom(pp, P);
   if (std::max({jp.Huu.nonZeros(), jp.Hup.nonZeros(), jp.Hpp.nonZeros()}) >= (Eigen::Index(1) << kSlotShift))
     throw std::length_error("joint derivative patterns too large for their slot encoding");
-  jointUU_ = static_cast<int>(jp.Huu.nonZeros());
-  jointUP_ = static_cast<int>(jp.Hup.nonZeros());
   jointSlots_.clear();
   jointStencils_.clear();
-  // Per stencil, per lower-triangle pair (i >= j) of its globals, two value
-  // slots (the pair and its transpose, -1 for none), encoded as
-  // block << kSlotShift | index, block 0: Huu, 1: Hup, 2: Hpp.
+  // Per stencil, per lower-triangle pair (i >= j) of its globals, the value
+  // slot it adds to, encoded as block << kSlotShift | index, block 0: Huu
+  // (lower triangle), 1: Hup, 2: Hpp.
   auto enc = [](int block, int index) { return index < 0 ? -1 : (block << kSlotShift) | index; };
   for (const Globals& s : stencils) {
     const int ng = static_cast<int>(s.index.size());
@@ -192,21 +190,21 @@ void PoseSystem::buildJointPattern() const {
     for (int i = 0; i < ng; ++i)
       for (int j = 0; j <= i; ++j) {
         const int a = s.index[i], b = s.index[j];
-        int s0 = -1, s1 = -1;
-        if (!s.isP[i] && !s.isP[j]) {
-          s0 = enc(0, slotOf(jp.Huu, a, b));
-          if (i != j) s1 = enc(0, slotOf(jp.Huu, b, a));
-        } else if (!s.isP[i] && s.isP[j]) {
-          s0 = enc(1, slotOf(jp.Hup, a, b));
-        } else if (s.isP[i] && !s.isP[j]) {
-          s0 = enc(1, slotOf(jp.Hup, b, a));
-        } else {
-          s0 = enc(2, slotOf(jp.Hpp, std::max(a, b), std::min(a, b)));
-        }
-        jointSlots_.push_back(s0);
-        jointSlots_.push_back(s1);
+        int slot = -1;
+        if (!s.isP[i] && !s.isP[j]) slot = enc(0, slotOf(jp.Huu, std::max(a, b), std::min(a, b)));
+        else if (!s.isP[i] && s.isP[j]) slot = enc(1, slotOf(jp.Hup, a, b));
+        else if (s.isP[i] && !s.isP[j]) slot = enc(1, slotOf(jp.Hup, b, a));
+        else slot = enc(2, slotOf(jp.Hpp, std::max(a, b), std::min(a, b)));
+        jointSlots_.push_back(slot);
       }
   }
+  // Huu's strictly upper entries, each with its lower transpose.
+  jointUpperFromLower_.clear();
+  for (int c = 0; c < jp.Huu.outerSize(); ++c)
+    for (int k = jp.Huu.outerIndexPtr()[c]; k < jp.Huu.outerIndexPtr()[c + 1]; ++k) {
+      const int r = jp.Huu.innerIndexPtr()[k];
+      if (r < c) jointUpperFromLower_.emplace_back(k, slotOf(jp.Huu, c, r));
+    }
   filter_ = savedFilter;
   jointReady_ = true;
 }
@@ -250,9 +248,8 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
     for (int e = 0; e < nl; ++e) {
       const double h = gb.L[e];
       if (h == 0.0) continue;
-      const int s0 = slots[2 * e], s1 = slots[2 * e + 1];
-      if (s0 >= 0) vals[s0 >> kSlotShift][s0 & kSlotMask] += h;
-      if (s1 >= 0) vals[s1 >> kSlotShift][s1 & kSlotMask] += h;
+      const int sl = slots[e];
+      if (sl >= 0) vals[sl >> kSlotShift][sl & kSlotMask] += h;
     }
   };
   forEachStencil<D, TW, true>(ctx, visit);
@@ -318,6 +315,9 @@ void PoseSystem::evaluateJoint(const Eigen::VectorXd& u, const Design& d, JointD
       else runJoint<D, TW, double>(u, d, nullptr, out);
     });
   });
+  // Huu is symmetric: the stencils fill its lower triangle.
+  double* huu = out.Huu.valuePtr();
+  for (const auto& [upper, lower] : jointUpperFromLower_) huu[upper] = huu[lower];
 }
 
 JointDerivatives PoseSystem::joint(const Eigen::VectorXd& u, const Design& d) const {
