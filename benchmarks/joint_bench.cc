@@ -2,31 +2,75 @@
 // on a scene (default examples/sheet.json, pose 0, at its equilibrium):
 // energy + gradient + Hessian (simulation), joint values in their fixed
 // patterns, the third-order directional product, and (dF/dp)^T lambda.
-// Prints medians of 15 runs in ms.  usage: rodmesh_joint_bench [SCENE.json]
+// Prints medians of 15 runs in ms: wall time and the process's CPU time (all
+// threads; on a machine shared with other work the CPU time is the steadier
+// of the two). With --breakdown, the same per kind of energy term. With
+// --only sim|values|third|product, just that evaluation, --runs times (for a
+// profiler: perf record rodmesh_joint_bench --only values --runs 300), and
+// with --term stretch|bend|connection|gravity, for that kind of term only.
+// usage: rodmesh_joint_bench [--breakdown] [--only WHAT] [--runs N] [--term T] [SCENE.json]
 #include "io/scene_reader.hh"
 #include "solver/equilibrium.hh"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
 #include <functional>
+#include <string>
 #include <vector>
 
 using namespace rodmesh;
 
-static double medianMs(const std::function<void()>& fn) {
-  std::vector<double> t;
-  for (int i = 0; i < 15; ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    fn();
-    t.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::sort(t.begin(), t.end());
-  return t[t.size() / 2];
+namespace {
+
+struct Timing {
+  double wall = 0.0, cpu = 0.0;  // medians, ms
+};
+
+double cpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
 }
 
+Timing median(const std::function<void()>& fn, int runs = 15) {
+  std::vector<double> w, c;
+  for (int i = 0; i < runs; ++i) {
+    const double c0 = cpuMs();
+    const auto t0 = std::chrono::steady_clock::now();
+    fn();
+    w.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    c.push_back(cpuMs() - c0);
+  }
+  std::sort(w.begin(), w.end());
+  std::sort(c.begin(), c.end());
+  return {w[w.size() / 2], c[c.size() / 2]};
+}
+
+void row(const char* name, const Timing& t, const Timing& sim) {
+  std::printf("%-36s %8.2f ms  (%5.2fx)   cpu %8.2f ms  (%5.2fx)\n", name, t.wall, t.wall / sim.wall, t.cpu,
+              t.cpu / sim.cpu);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
-  const Scene scene = readSceneFile(argc > 1 ? argv[1] : RODMESH_SOURCE_DIR "/examples/sheet.json");
+  bool breakdown = false;
+  std::string only;
+  int runs = 15;
+  std::string term;
+  std::string path = RODMESH_SOURCE_DIR "/examples/sheet.json";
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--breakdown") == 0) breakdown = true;
+    else if (std::strcmp(argv[i], "--only") == 0 && i + 1 < argc) only = argv[++i];
+    else if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
+    else if (std::strcmp(argv[i], "--term") == 0 && i + 1 < argc) term = argv[++i];
+    else path = argv[i];
+  }
+  const Scene scene = readSceneFile(path);
   SceneModel model(scene);
   const Design d = Design::fromScene(scene);
   PoseSystem& sys = model.pose(0);
@@ -36,16 +80,57 @@ int main(int argc, char** argv) {
   double e;
   const Eigen::VectorXd lambda = Eigen::VectorXd::Ones(sys.numDofs());
   JointDerivatives j;
-  const double sim = medianMs([&] { sys.evaluate(u, d, e, g, true); });
-  const double values = medianMs([&] { sys.evaluateJoint(u, d, j); });
-  const double third = medianMs([&] { sys.evaluateJoint(u, d, j, &lambda); });
-  const double product = medianMs([&] { sys.designForceProduct(u, d, lambda); });
+  if (!only.empty()) {
+    using Terms = PoseSystem::Terms;
+    if (term == "stretch") sys.setTermFilter(Terms::Stretch);
+    else if (term == "bend") sys.setTermFilter(Terms::BendTwist);
+    else if (term == "connection") sys.setTermFilter(Terms::Connection);
+    else if (term == "gravity") sys.setTermFilter(Terms::Gravity);
+    else if (!term.empty()) {
+      std::fprintf(stderr, "--term: stretch, bend, connection or gravity, not '%s'\n", term.c_str());
+      return 2;
+    }
+    std::function<void()> fn;
+    if (only == "sim") fn = [&] { sys.evaluate(u, d, e, g, true); };
+    else if (only == "values") fn = [&] { sys.evaluateJoint(u, d, j); };
+    else if (only == "third") fn = [&] { sys.evaluateJoint(u, d, j, &lambda); };
+    else if (only == "product") fn = [&] { sys.designForceProduct(u, d, lambda); };
+    else {
+      std::fprintf(stderr, "--only: sim, values, third or product, not '%s'\n", only.c_str());
+      return 2;
+    }
+    const Timing t = median(fn, runs);
+    std::printf("%s: %d runs, median %.2f ms, cpu %.2f ms\n", only.c_str(), runs, t.wall, t.cpu);
+    return 0;
+  }
+  const Timing sim = median([&] { sys.evaluate(u, d, e, g, true); });
+  const Timing values = median([&] { sys.evaluateJoint(u, d, j); });
+  const Timing third = median([&] { sys.evaluateJoint(u, d, j, &lambda); });
+  const Timing product = median([&] { sys.designForceProduct(u, d, lambda); });
   std::printf("unknowns %d, design parameters %d, pattern nnz: Huu %ld (full), Hup %ld, Hpp %ld (lower)\n",
               sys.numDofs(), d.numParameters(), static_cast<long>(j.Huu.nonZeros()),
               static_cast<long>(j.Hup.nonZeros()), static_cast<long>(j.Hpp.nonZeros()));
-  std::printf("simulation energy+gradient+Hessian  %8.2f ms\n", sim);
-  std::printf("joint values (fixed patterns)        %8.2f ms  (%.2fx)\n", values, values / sim);
-  std::printf("joint third-order directional        %8.2f ms  (%.2fx)\n", third, third / sim);
-  std::printf("(dF/dp)^T lambda, first order        %8.2f ms  (%.2fx)\n", product, product / sim);
+  std::printf("stencils: %d stretch, %d bend-twist, %d clamp, %d connection\n", sys.numStretch(),
+              sys.numBendTwist(), sys.numClamp(), sys.numConnectionTerms());
+  row("simulation energy+gradient+Hessian", sim, sim);
+  row("joint values (fixed patterns)", values, sim);
+  row("joint third-order directional", third, sim);
+  row("(dF/dp)^T lambda, first order", product, sim);
+  if (breakdown) {
+    using Terms = PoseSystem::Terms;
+    const std::pair<Terms, const char*> terms[] = {{Terms::Stretch, "stretch"},     {Terms::BendTwist, "bend-twist"},
+                                                   {Terms::Clamp, "clamp"},         {Terms::Connection, "connection"},
+                                                   {Terms::Gravity, "gravity"},     {Terms::Forces, "point loads"}};
+    std::printf("per term, cpu ms: simulation / joint values / third order / product\n");
+    for (const auto& [t, name] : terms) {
+      sys.setTermFilter(t);
+      const Timing s = median([&] { sys.evaluate(u, d, e, g, true); });
+      const Timing v = median([&] { sys.evaluateJoint(u, d, j); });
+      const Timing th = median([&] { sys.evaluateJoint(u, d, j, &lambda); });
+      const Timing p = median([&] { sys.designForceProduct(u, d, lambda); });
+      std::printf("  %-12s %8.2f %8.2f %8.2f %8.2f\n", name, s.cpu, v.cpu, th.cpu, p.cpu);
+    }
+    sys.setTermFilter(Terms::All);
+  }
   return 0;
 }

@@ -12,6 +12,13 @@
 //                             the Lagrangian of the equilibrium constraints needs.
 // The Hessian is stored packed (lower triangle, row-major: entry (i, j), i >= j,
 // at i (i + 1) / 2 + j).
+//
+// A default-constructed Hess or Grad is zero; results of the operations below
+// are built without zero-filling first (every entry is written), which matters
+// for the large joint (u, p) stencils where a Hess is kilobytes. compose()
+// applies the second-order chain rule to an outer function of intermediate
+// scalars, so kernels can differentiate pieces over the few variables each
+// depends on and combine them exactly (see model/pose_system_detail.hh).
 #pragma once
 
 #include <array>
@@ -21,9 +28,12 @@
 namespace rodmesh::ad {
 
 // ---------------------------------------------------------------- Dual ----
-// First-order dual number v + d e, e^2 = 0.
+// First-order dual number v + d e, e^2 = 0. Like a double, a default-
+// initialised Dual (`Dual x;`) is indeterminate and a value-initialised one
+// (`Dual x{};`, `Dual()`) is zero: arrays of Duals inside Hess/Grad results
+// are then not zero-filled before being written.
 struct Dual {
-  double v = 0.0, d = 0.0;
+  double v, d;
   Dual() = default;
   Dual(double value) : v(value), d(0.0) {}  // NOLINT: implicit by design
   Dual(double value, double der) : v(value), d(der) {}
@@ -49,23 +59,32 @@ inline double value(Dual a) { return a.v; }
 inline double value(double a) { return a; }
 
 // ---------------------------------------------------------------- Hess ----
+// Tag: construct without zero-filling (every entry is written afterwards).
+struct NoInit {};
+
 template <int N, class T = double>
 struct Hess {
   static constexpr int kN = N;
   static constexpr int kNH = N * (N + 1) / 2;
-  T v{};
-  std::array<T, N> g{};
-  std::array<T, kNH> h{};
+  T v;
+  std::array<T, N> g;
+  std::array<T, kNH> h;
 
-  Hess() = default;
-  Hess(double c) : v(c) {}  // NOLINT: constants promote implicitly
-  Hess(const T& c, int) : v(c) {}
+  Hess() : v(), g(), h() {}
+  Hess(double c) : v(c), g(), h() {}  // NOLINT: constants promote implicitly
+  Hess(const T& c, int) : v(c), g(), h() {}
+  explicit Hess(NoInit) {}
   // An independent variable: value x, derivative 1 in slot i.
   static Hess variable(const T& x, int i) {
     Hess r;
     r.v = x;
     r.g[i] = T(1.0);
     return r;
+  }
+  // The same in place, on a zero Hess (no copy of the arrays).
+  void makeVariable(const T& x, int i) {
+    v = x;
+    g[i] = T(1.0);
   }
   static constexpr int hidx(int i, int j) { return i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i; }
   const T& hess(int i, int j) const { return h[hidx(i, j)]; }
@@ -74,7 +93,7 @@ struct Hess {
 // Composition with a scalar function f, given f(a), f'(a), f''(a).
 template <int N, class T>
 inline Hess<N, T> chain(const Hess<N, T>& a, const T& f, const T& df, const T& d2f) {
-  Hess<N, T> r;
+  Hess<N, T> r{NoInit{}};
   r.v = f;
   for (int i = 0; i < N; ++i) r.g[i] = df * a.g[i];
   int k = 0;
@@ -87,7 +106,7 @@ inline Hess<N, T> chain(const Hess<N, T>& a, const T& f, const T& df, const T& d
 
 template <int N, class T>
 inline Hess<N, T> operator+(const Hess<N, T>& a, const Hess<N, T>& b) {
-  Hess<N, T> r;
+  Hess<N, T> r{NoInit{}};
   r.v = a.v + b.v;
   for (int i = 0; i < N; ++i) r.g[i] = a.g[i] + b.g[i];
   for (int k = 0; k < Hess<N, T>::kNH; ++k) r.h[k] = a.h[k] + b.h[k];
@@ -95,7 +114,7 @@ inline Hess<N, T> operator+(const Hess<N, T>& a, const Hess<N, T>& b) {
 }
 template <int N, class T>
 inline Hess<N, T> operator-(const Hess<N, T>& a, const Hess<N, T>& b) {
-  Hess<N, T> r;
+  Hess<N, T> r{NoInit{}};
   r.v = a.v - b.v;
   for (int i = 0; i < N; ++i) r.g[i] = a.g[i] - b.g[i];
   for (int k = 0; k < Hess<N, T>::kNH; ++k) r.h[k] = a.h[k] - b.h[k];
@@ -103,7 +122,7 @@ inline Hess<N, T> operator-(const Hess<N, T>& a, const Hess<N, T>& b) {
 }
 template <int N, class T>
 inline Hess<N, T> operator-(const Hess<N, T>& a) {
-  Hess<N, T> r;
+  Hess<N, T> r{NoInit{}};
   r.v = -a.v;
   for (int i = 0; i < N; ++i) r.g[i] = -a.g[i];
   for (int k = 0; k < Hess<N, T>::kNH; ++k) r.h[k] = -a.h[k];
@@ -111,7 +130,7 @@ inline Hess<N, T> operator-(const Hess<N, T>& a) {
 }
 template <int N, class T>
 inline Hess<N, T> operator*(const Hess<N, T>& a, const Hess<N, T>& b) {
-  Hess<N, T> r;
+  Hess<N, T> r{NoInit{}};
   r.v = a.v * b.v;
   for (int i = 0; i < N; ++i) r.g[i] = a.v * b.g[i] + b.v * a.g[i];
   int k = 0;
@@ -122,7 +141,7 @@ inline Hess<N, T> operator*(const Hess<N, T>& a, const Hess<N, T>& b) {
 // Scalar (constant) operands.
 template <int N, class T>
 inline Hess<N, T> scale(const Hess<N, T>& a, const T& s) {
-  Hess<N, T> r;
+  Hess<N, T> r{NoInit{}};
   r.v = a.v * s;
   for (int i = 0; i < N; ++i) r.g[i] = a.g[i] * s;
   for (int k = 0; k < Hess<N, T>::kNH; ++k) r.h[k] = a.h[k] * s;
@@ -154,9 +173,19 @@ template <int N, class T>
 inline Hess<N, T> operator/(double s, const Hess<N, T>& b) { return scale(inverse(b), T(s)); }
 
 template <int N, class T>
-inline Hess<N, T>& operator+=(Hess<N, T>& a, const Hess<N, T>& b) { return a = a + b; }
+inline Hess<N, T>& operator+=(Hess<N, T>& a, const Hess<N, T>& b) {
+  a.v = a.v + b.v;
+  for (int i = 0; i < N; ++i) a.g[i] = a.g[i] + b.g[i];
+  for (int k = 0; k < Hess<N, T>::kNH; ++k) a.h[k] = a.h[k] + b.h[k];
+  return a;
+}
 template <int N, class T>
-inline Hess<N, T>& operator-=(Hess<N, T>& a, const Hess<N, T>& b) { return a = a - b; }
+inline Hess<N, T>& operator-=(Hess<N, T>& a, const Hess<N, T>& b) {
+  a.v = a.v - b.v;
+  for (int i = 0; i < N; ++i) a.g[i] = a.g[i] - b.g[i];
+  for (int k = 0; k < Hess<N, T>::kNH; ++k) a.h[k] = a.h[k] - b.h[k];
+  return a;
+}
 template <int N, class T>
 inline Hess<N, T>& operator*=(Hess<N, T>& a, const Hess<N, T>& b) { return a = a * b; }
 
@@ -185,7 +214,7 @@ inline Hess<N, T> cos(const Hess<N, T>& a) {
 template <int N, class T>
 inline Hess<N, T> atan2(const Hess<N, T>& y, const Hess<N, T>& x) {
   using std::atan2;
-  Hess<N, T> r;
+  Hess<N, T> r{NoInit{}};
   const T r2 = x.v * x.v + y.v * y.v;
   const T fy = x.v / r2, fx = -(y.v / r2);
   const T r4 = r2 * r2;
@@ -210,11 +239,12 @@ inline double value(const Hess<N, T>& a) { return value(a.v); }
 // (dynamic relaxation, residual checks), several times cheaper than Hess.
 template <int N, class T = double>
 struct Grad {
-  T v{};
-  std::array<T, N> g{};
-  Grad() = default;
-  Grad(double c) : v(c) {}  // NOLINT: constants promote implicitly
-  Grad(const T& c, int) : v(c) {}
+  T v;
+  std::array<T, N> g;
+  Grad() : v(), g() {}
+  Grad(double c) : v(c), g() {}  // NOLINT: constants promote implicitly
+  Grad(const T& c, int) : v(c), g() {}
+  explicit Grad(NoInit) {}
   static Grad variable(const T& x, int i) {
     Grad r;
     r.v = x;
@@ -224,42 +254,42 @@ struct Grad {
 };
 template <int N, class T>
 inline Grad<N, T> chain(const Grad<N, T>& a, const T& f, const T& df) {
-  Grad<N, T> r;
+  Grad<N, T> r{NoInit{}};
   r.v = f;
   for (int i = 0; i < N; ++i) r.g[i] = df * a.g[i];
   return r;
 }
 template <int N, class T>
 inline Grad<N, T> operator+(const Grad<N, T>& a, const Grad<N, T>& b) {
-  Grad<N, T> r;
+  Grad<N, T> r{NoInit{}};
   r.v = a.v + b.v;
   for (int i = 0; i < N; ++i) r.g[i] = a.g[i] + b.g[i];
   return r;
 }
 template <int N, class T>
 inline Grad<N, T> operator-(const Grad<N, T>& a, const Grad<N, T>& b) {
-  Grad<N, T> r;
+  Grad<N, T> r{NoInit{}};
   r.v = a.v - b.v;
   for (int i = 0; i < N; ++i) r.g[i] = a.g[i] - b.g[i];
   return r;
 }
 template <int N, class T>
 inline Grad<N, T> operator-(const Grad<N, T>& a) {
-  Grad<N, T> r;
+  Grad<N, T> r{NoInit{}};
   r.v = -a.v;
   for (int i = 0; i < N; ++i) r.g[i] = -a.g[i];
   return r;
 }
 template <int N, class T>
 inline Grad<N, T> operator*(const Grad<N, T>& a, const Grad<N, T>& b) {
-  Grad<N, T> r;
+  Grad<N, T> r{NoInit{}};
   r.v = a.v * b.v;
   for (int i = 0; i < N; ++i) r.g[i] = a.v * b.g[i] + b.v * a.g[i];
   return r;
 }
 template <int N, class T>
 inline Grad<N, T> operator*(const Grad<N, T>& a, double s) {
-  Grad<N, T> r;
+  Grad<N, T> r{NoInit{}};
   r.v = a.v * s;
   for (int i = 0; i < N; ++i) r.g[i] = a.g[i] * s;
   return r;
@@ -306,7 +336,7 @@ inline Grad<N, T> cos(const Grad<N, T>& a) {
 template <int N, class T>
 inline Grad<N, T> atan2(const Grad<N, T>& y, const Grad<N, T>& x) {
   using std::atan2;
-  Grad<N, T> r;
+  Grad<N, T> r{NoInit{}};
   const T r2 = x.v * x.v + y.v * y.v;
   const T fy = x.v / r2, fx = -(y.v / r2);
   r.v = atan2(y.v, x.v);
@@ -329,6 +359,155 @@ inline Hess<N, T> lift(const Hess<M, T>& a, const int* slots) {
   }
   return r;
 }
+
+// The same with a change of scalar: a Hess over double (a piece that does not
+// depend on a direction, e.g. one of the design only) as one over T.
+template <int N, int M, class T>
+inline Hess<N, T> liftAs(const Hess<M, double>& a, const int* slots) {
+  static_assert(M <= N, "lift to a smaller variable set");
+  Hess<N, T> r;
+  r.v = T(a.v);
+  for (int i = 0; i < M; ++i) {
+    r.g[slots[i]] = T(a.g[i]);
+    for (int j = 0; j <= i; ++j) r.h[Hess<N, T>::hidx(slots[i], slots[j])] = T(a.h[Hess<M, double>::hidx(i, j)]);
+  }
+  return r;
+}
+
+// acc += a lifted by slots (as lift(), accumulating).
+template <int N, int M, class T>
+inline void addLifted(Hess<N, T>& acc, const Hess<M, T>& a, const int* slots) {
+  acc.v += a.v;
+  for (int i = 0; i < M; ++i) {
+    acc.g[slots[i]] += a.g[i];
+    for (int j = 0; j <= i; ++j) acc.h[Hess<N, T>::hidx(slots[i], slots[j])] += a.h[Hess<M, T>::hidx(i, j)];
+  }
+}
+
+// acc += x * q for two scalars on disjoint variables: x over M variables
+// (variable a is target variable xslots[a]), q over the P consecutive target
+// variables qfirst, ..., all after every xslots[a]; q without a direction.
+template <int N, int M, int P, class T>
+inline void addProduct(Hess<N, T>& acc, const Hess<M, T>& x, const int* xslots, const Hess<P, double>& q,
+                       int qfirst) {
+  using H = Hess<N, T>;
+  acc.v += x.v * q.v;
+  for (int a = 0; a < M; ++a) acc.g[xslots[a]] += x.g[a] * q.v;
+  for (int b = 0; b < P; ++b) acc.g[qfirst + b] += x.v * q.g[b];
+  for (int a = 0; a < M; ++a)
+    for (int c = 0; c <= a; ++c) acc.h[H::hidx(xslots[a], xslots[c])] += x.h[Hess<M, T>::hidx(a, c)] * q.v;
+  const double* qh = q.h.data();
+  for (int b = 0; b < P; ++b) {
+    const int s = qfirst + b;
+    T* row = acc.h.data() + s * (s + 1) / 2;
+    for (int a = 0; a < M; ++a) row[xslots[a]] += x.g[a] * q.g[b];
+    T* rq = row + qfirst;
+    for (int d = 0; d <= b; ++d) rq[d] += x.v * qh[d];
+    qh += b + 1;
+  }
+}
+
+// ------------------------------------------------------------- compose ----
+// An intermediate scalar y for compose(), given over target variables in up
+// to two parts, each over consecutive variables first, ..., first + m - 1
+// with its gradient g and packed lower Hessian h (null: zero, e.g. a
+// variable itself); y's Hessian has no entries between the two parts (a sum
+// of a function of some variables and a function of others).
+template <class T>
+struct Inner {
+  struct Part {
+    const T* g = nullptr;
+    const T* h = nullptr;
+    int m = 0;
+    int first = 0;
+  };
+  Part part[2];
+  Inner() = default;
+  Inner(const T* g, const T* h, int m, int first) : part{{g, h, m, first}, {}} {}
+  Inner(const Part& a, const Part& b) : part{a, b} {}
+};
+template <int M, class T>
+inline typename Inner<T>::Part innerPart(const Hess<M, T>& y, int first) {
+  return {y.g.data(), y.h.data(), M, first};
+}
+template <int M, class T>
+inline Inner<T> inner(const Hess<M, T>& y, int first) {
+  return {y.g.data(), y.h.data(), M, first};
+}
+
+inline bool isZero(double a) { return a == 0.0; }
+inline bool isZero(const Dual& a) { return a.v == 0.0 && a.d == 0.0; }
+
+// The second-order chain rule, exact: f holds an outer function's value,
+// gradient and Hessian w.r.t. M intermediate scalars y_k (as Hess<M> over
+// them); y[k] gives y_k over the N target variables. The result is f as a
+// function of the target variables:
+//   g = sum_k f_k g_k,   H = sum_k f_k H_k + sum_kl f_kl g_k g_l^T.
+template <int N, int M, class T>
+Hess<N, T> compose(const Hess<M, T>& f, const Inner<T>* y) {
+  using H = Hess<N, T>;
+  H r;
+  r.v = f.v;
+  for (int k = 0; k < M; ++k) {
+    const T fk = f.g[k];
+    if (isZero(fk)) continue;
+    for (const auto& yk : y[k].part) {
+      T* rg = r.g.data() + yk.first;
+      for (int a = 0; a < yk.m; ++a) rg[a] += fk * yk.g[a];
+      if (!yk.h) continue;
+      const T* hk = yk.h;
+      for (int a = 0; a < yk.m; ++a) {
+        const int s = yk.first + a;
+        T* rh = r.h.data() + s * (s + 1) / 2 + yk.first;
+        for (int b = 0; b <= a; ++b) rh[b] += fk * hk[b];
+        hk += a + 1;
+      }
+    }
+  }
+  // W = f'' J (J: rows g_k over the targets), then H += J^T W (lower part).
+  T W[M][N] = {};
+  bool row[M] = {};
+  for (int k = 0; k < M; ++k)
+    for (int l = 0; l < M; ++l) {
+      const T fkl = f.h[Hess<M, T>::hidx(k, l)];
+      if (isZero(fkl)) continue;
+      for (const auto& yl : y[l].part) {
+        if (yl.m == 0) continue;
+        row[k] = true;
+        T* w = W[k] + yl.first;
+        for (int a = 0; a < yl.m; ++a) w[a] += fkl * yl.g[a];
+      }
+    }
+  for (int k = 0; k < M; ++k) {
+    if (!row[k]) continue;
+    for (const auto& yk : y[k].part)
+      for (int a = 0; a < yk.m; ++a) {
+        const int s = yk.first + a;
+        const T ga = yk.g[a];
+        T* hs = r.h.data() + s * (s + 1) / 2;
+        for (int t = 0; t <= s; ++t) hs[t] += ga * W[k][t];
+      }
+  }
+  return r;
+}
+
+// The order of derivatives a scalar type carries: 0 for double, 1 for Dual
+// and Grad<N>, 2 for Hess<N>, one more with Dual entries.
+template <class S>
+struct Order : std::integral_constant<int, 0> {};
+template <>
+struct Order<Dual> : std::integral_constant<int, 1> {};
+template <int N, class T>
+struct Order<Grad<N, T>> : std::integral_constant<int, 1 + Order<T>::value> {};
+template <int N, class T>
+struct Order<Hess<N, T>> : std::integral_constant<int, 2 + Order<T>::value> {};
+
+template <class S>
+struct IsHess : std::false_type {};
+template <int N, class T>
+struct IsHess<Hess<N, T>> : std::true_type {
+  using scalar = T;
+};
 
 template <class S>
 struct IsHessDouble : std::false_type {};

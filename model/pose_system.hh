@@ -226,14 +226,16 @@ class PoseSystem {
   std::vector<Stencil> stencils_;
   Eigen::SparseMatrix<double> hessian_;
 
-  // Joint patterns (built on first use): per stencil (gravity included) the
-  // value slot of each (global i, global j) pair of its JointMap, in one
-  // index space [Huu values | Hup values | Hpp values], -1 for none.
+  // Joint patterns (built on first use): per stencil (gravity included), for
+  // each lower-triangle pair (i >= j) of its JointMap's globals, the value
+  // slot it adds to (block << 28 | index into the values of Huu (its lower
+  // triangle), Hup or Hpp; -1 for none); Huu's upper triangle is then
+  // copied from the lower one: (upper index, lower index) pairs.
   mutable bool jointReady_ = false;
   mutable JointDerivatives jointPattern_;
   mutable std::vector<int> jointSlots_;
   mutable std::vector<Stencil> jointStencils_;
-  mutable int jointUU_ = 0, jointUP_ = 0;
+  mutable std::vector<std::pair<int, int>> jointUpperFromLower_;
 };
 
 }  // namespace rodmesh

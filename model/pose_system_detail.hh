@@ -10,6 +10,7 @@
 #include "model/energies/stretch.hh"
 #include "model/pose_system.hh"
 
+#include <algorithm>
 #include <type_traits>
 
 namespace rodmesh::detail {
@@ -73,13 +74,13 @@ ad::Hess<N, T> evalLocal(const Kern& k, const LocalStencil& ls, const double* xd
     T val;
     if constexpr (std::is_same_v<T, ad::Dual>) val = ad::Dual(ls.xv[i], xdir ? xdir[i] : 0.0);
     else val = ls.xv[i];
-    x[i] = H::variable(val, i);
+    x[i].makeVariable(val, i);
   }
   if constexpr (!Joint) {
     // Simulation: design data are constants, evaluated in double.
     return k(x, ls.pv);
   } else {
-    for (int i = 0; i < ls.np; ++i) x[nx + i] = H::variable(T(ls.pv[i]), nx + i);
+    for (int i = 0; i < ls.np; ++i) x[nx + i].makeVariable(T(ls.pv[i]), nx + i);
     return k(x, x + nx);
   }
 }
@@ -248,8 +249,8 @@ struct BendK {
       constexpr int M = D + (TW ? 1 : 0);
       const int slots0[4] = {0, 1, D == 3 ? 2 : 2 * D, 2 * D};
       const int slots1[4] = {D, D + 1, D == 3 ? D + 2 : 2 * D + 1, 2 * D + 1};
-      const energies::EdgeState<S> a = edgeStateLifted<S, M>(x, 0, TW ? 2 * D : -1, off0, k.chartT0, k.chartD0, slots0);
-      const energies::EdgeState<S> b = edgeStateLifted<S, M>(x, D, TW ? 2 * D + 1 : -1, off1, k.chartT1, k.chartD1, slots1);
+      const EdgeState<S> a = edgeStateLifted<S, M>(x, 0, TW ? 2 * D : -1, off0, k.chartT0, k.chartD0, slots0);
+      const EdgeState<S> b = edgeStateLifted<S, M>(x, D, TW ? 2 * D + 1 : -1, off1, k.chartT1, k.chartD1, slots1);
       return energies::bendTwistFromStates(a, b, th0, th1, rest, k);
     } else {
       const V3<S> e0 = embed<D>(x, off0, *B);
@@ -262,14 +263,14 @@ struct BendK {
   // its twist (x[theta], or none), differentiated over M = D (+1) variables
   // and lifted to the stencil's variable slots.
   template <class S, int M>
-  energies::EdgeState<S> edgeStateLifted(const S* x, int first, int theta, const Vec3& off, const Vec3& chartT,
+  EdgeState<S> edgeStateLifted(const S* x, int first, int theta, const Vec3& off, const Vec3& chartT,
                                          const Vec3& chartD, const int* slots) const {
     using Hm = ad::Hess<M, double>;
     constexpr int N = ad::IsHessDouble<S>::n;
     Hm w[3];
-    for (int i = 0; i < D; ++i) w[i] = Hm::variable(x[first + i].v, i);
+    for (int i = 0; i < D; ++i) w[i].makeVariable(x[first + i].v, i);
     const Hm th = theta >= 0 ? Hm::variable(x[theta].v, D) : Hm(0.0);
-    const energies::EdgeState<Hm> st = energies::edgeState(embed<D>(w, off, *B), th, chartT, chartD);
+    const EdgeState<Hm> st = edgeState(embed<D>(w, off, *B), th, chartT, chartD);
     auto liftV = [&](const V3<Hm>& v) {
       return V3<S>(ad::lift<N, M>(v.x, slots), ad::lift<N, M>(v.y, slots), ad::lift<N, M>(v.z, slots));
     };
@@ -333,6 +334,339 @@ template <int D, bool TW, int K>
 struct KernelSize<ConnectionK<D, TW, K>> { static constexpr int nx = K * D + (TW ? K : 0), np = 5 * K + 2; };
 
 
+
+// ------------------------------------------------------------------------
+// Joint (u, p) derivatives of one kernel over all its local variables (the x
+// part first, then the p part): evalJoint. The reference is evalLocal with
+// every local variable seeded in one Hess<N> (generic, used for the small
+// kernels). Bend-twist and connections, which dominate, instead differentiate
+// each piece over the few variables it depends on (an edge's state over that
+// edge's D (+1) locals, the rest quantities over the p locals, in double: a
+// direction only enters through x) and combine the pieces exactly by the
+// chain rule (ad::lift, ad::compose). tests/model/joint_kernel_test.cc checks
+// every such kernel against the reference.
+
+// A kernel's local variable i as a T: value x, directional part dir[i].
+template <class T>
+T seedValue(double x, const double* dir, int i) {
+  if constexpr (std::is_same_v<T, ad::Dual>) return ad::Dual(x, dir ? dir[i] : 0.0);
+  else return x;
+}
+
+template <int N>
+struct Iota {
+  int s[N];
+  constexpr Iota(int first) : s() {
+    for (int i = 0; i < N; ++i) s[i] = first + i;
+  }
+};
+
+// The state of one edge from its D position locals (at x[first]) and its
+// twist local (x[theta], or none), differentiated over those M = D (+1)
+// locals and lifted into a Hess<N, T> whose variable slots[a] is local a.
+template <int N, int D, bool TW, class T>
+EdgeState<ad::Hess<N, T>> edgeStateJoint(const LocalStencil& ls, const double* xdir, int first, int theta,
+                                                   const Vec3& off, const Mat32& B, const Vec3& chartT,
+                                                   const Vec3& chartD, const int* slots) {
+  constexpr int M = D + (TW ? 1 : 0);
+  using Hm = ad::Hess<M, T>;
+  Hm w[3];
+  for (int i = 0; i < D; ++i) w[i].makeVariable(seedValue<T>(ls.xv[first + i], xdir, first + i), i);
+  Hm th(0.0);
+  if constexpr (TW) th.makeVariable(seedValue<T>(ls.xv[theta], xdir, theta), D);
+  const EdgeState<Hm> st = edgeState(embed<D>(w, off, B), th, chartT, chartD);
+  auto liftV = [&](const V3<Hm>& v) {
+    using S = ad::Hess<N, T>;
+    return V3<S>(ad::lift<N, M>(v.x, slots), ad::lift<N, M>(v.y, slots), ad::lift<N, M>(v.z, slots));
+  };
+  return {liftV(st.t), liftV(st.u), liftV(st.m1), liftV(st.m2)};
+}
+
+template <int N, class T, class Kern>
+ad::Hess<N, T> evalJoint(const Kern& k, const LocalStencil& ls, const double* xdir) {
+  return evalLocal<N, T, true>(k, ls, xdir);
+}
+
+// Stretch: the current edge length (over the x locals) and the rest length
+// and stiffness (over the p locals) meet in stretchEnergyOfLength.
+template <int N, class T, int D, bool TW>
+ad::Hess<N, T> evalJoint(const StretchK<D, TW>& k, const LocalStencil& ls, const double* xdir) {
+  constexpr int NX = KernelSize<StretchK<D, TW>>::nx, NP = KernelSize<StretchK<D, TW>>::np;
+  static_assert(N == NX + NP && NP == 7, "stretch: x and p locals");
+  using HX = ad::Hess<NX, T>;
+  HX w[3];
+  for (int i = 0; i < D; ++i) w[i].makeVariable(seedValue<T>(ls.xv[i], xdir, i), i);
+  const HX len = norm(embed<D>(w, k.off, *k.B));
+  using HP = ad::Hess<NP, double>;
+  HP p[NP];
+  for (int i = 0; i < NP; ++i) p[i].makeVariable(ls.pv[i], i);
+  const energies::StretchRest<HP> rest = energies::stretchRest(V3<HP>(p[0], p[1], p[2]), p[3], p[4], p[5], p[6], k.k);
+  static constexpr Iota<NP> id(0);
+  const ad::Hess<NP, T> L = ad::liftAs<NP, NP, T>(rest.length, id.s), c = ad::liftAs<NP, NP, T>(rest.halfKOverL, id.s);
+  using HO = ad::Hess<3, T>;
+  const HO y0 = HO::variable(len.v, 0);
+  const energies::StretchRest<HO> r{HO::variable(L.v, 1), HO::variable(c.v, 2)};
+  const HO f = energies::stretchEnergyOfLength(y0, r);
+  const ad::Inner<T> in[3] = {ad::inner(len, 0), ad::inner(L, NX), ad::inner(c, NX)};
+  return ad::compose<N, 3, T>(f, in);
+}
+
+// Gravity: linear in the positions; the mass over the p locals.
+template <int N, class T, int D, bool TW>
+ad::Hess<N, T> evalJoint(const GravityK<D, TW>& k, const LocalStencil& ls, const double* xdir) {
+  constexpr int NX = KernelSize<GravityK<D, TW>>::nx, NP = KernelSize<GravityK<D, TW>>::np;
+  static_assert(N == NX + NP && NP == 7, "gravity: x and p locals");
+  using HX = ad::Hess<NX, T>;
+  HX w[2 * D];
+  for (int i = 0; i < 2 * D; ++i) w[i].makeVariable(seedValue<T>(ls.xv[i], xdir, i), i);
+  const HX height = energies::gravityHeight(embed<D>(w, k.offA, *k.B), embed<D>(w + D, k.offB, *k.B), k.k);
+  using HP = ad::Hess<NP, double>;
+  HP p[NP];
+  for (int i = 0; i < NP; ++i) p[i].makeVariable(ls.pv[i], i);
+  static constexpr Iota<NP> id(0);
+  const ad::Hess<NP, T> m =
+      ad::liftAs<NP, NP, T>(energies::gravityMass(V3<HP>(p[0], p[1], p[2]), p[3], p[4], p[5], p[6], k.k), id.s);
+  using HO = ad::Hess<2, T>;
+  const HO f = energies::gravityOf(HO::variable(m.v, 0), HO::variable(height.v, 1));
+  const ad::Inner<T> in[2] = {ad::inner(m, NX), ad::inner(height, 0)};
+  return ad::compose<N, 2, T>(f, in);
+}
+
+// Bend-twist: the current side (bendTwistCurrent: 5 scalars over the x
+// locals, from the edge states) and the rest side (bendTwistRestShape: 5
+// scalars over the rest edges E0, E1, from their frames; the stiffness
+// coefficients over E0, E1 and the radii) meet only in bendTwistCombine,
+// evaluated over their differences, the twist difference and the
+// stiffnesses (9 scalars), then composed.
+template <int N, class T, int D, bool TW>
+ad::Hess<N, T> evalJoint(const BendK<D, TW>& k, const LocalStencil& ls, const double* xdir) {
+  constexpr int NX = KernelSize<BendK<D, TW>>::nx, NP = KernelSize<BendK<D, TW>>::np;
+  static_assert(N == NX + NP && NP == 8, "bend-twist: x and p locals");
+  using HX = ad::Hess<NX, T>;
+  const int slots0[4] = {0, 1, D == 3 ? 2 : 2 * D, 2 * D};
+  const int slots1[4] = {D, D + 1, D == 3 ? D + 2 : 2 * D + 1, 2 * D + 1};
+  const EdgeState<HX> a =
+      edgeStateJoint<NX, D, TW, T>(ls, xdir, 0, 2 * D, k.off0, *k.B, k.k.chartT0, k.k.chartD0, slots0);
+  const EdgeState<HX> b =
+      edgeStateJoint<NX, D, TW, T>(ls, xdir, D, 2 * D + 1, k.off1, *k.B, k.k.chartT1, k.k.chartD1, slots1);
+  const energies::BendTwistCurrent<HX> cur = energies::bendTwistCurrent(a, b, k.k);
+
+  // Rest side, in double (a direction never enters the design): each rest
+  // frame over its own edge (p locals 0..2, 3..5), lifted to both edges.
+  using H3 = ad::Hess<3, double>;
+  using H6 = ad::Hess<6, double>;
+  using H8 = ad::Hess<8, double>;
+  FrameT<H6> F[2];
+  H6 len[2];
+  for (int e = 0; e < 2; ++e) {
+    const V3<H3> E(H3::variable(ls.pv[3 * e], 0), H3::variable(ls.pv[3 * e + 1], 1), H3::variable(ls.pv[3 * e + 2], 2));
+    const FrameT<H3> f = restFrameOf(E, e == 0 ? k.k.n0 : k.k.n1);
+    const int sl[3] = {3 * e, 3 * e + 1, 3 * e + 2};
+    auto liftV = [&](const V3<H3>& v) {
+      return V3<H6>(ad::lift<6, 3>(v.x, sl), ad::lift<6, 3>(v.y, sl), ad::lift<6, 3>(v.z, sl));
+    };
+    F[e] = {liftV(f.t), liftV(f.d1), liftV(f.d2)};
+    len[e] = ad::lift<6, 3>(norm(E), sl);
+  }
+  energies::BendTwistRest<H6> shape;
+  energies::bendTwistRestShape(F[0], F[1], shape);
+  // Stiffness coefficients over (l, r_t, r_n), composed into the p locals.
+  const H6 l = energies::bendTwistRestLength(len[0], len[1]);
+  energies::BendTwistRest<H3> st;
+  energies::bendTwistRestStiffness(H3::variable(l.v, 0), H3::variable(ls.pv[6], 1), H3::variable(ls.pv[7], 2), k.k,
+                                   st);
+  static const double oneD = 1.0;
+  const ad::Inner<double> lr[3] = {ad::inner(l, 0), {&oneD, nullptr, 1, 6}, {&oneD, nullptr, 1, 7}};
+  const H8 kc[3] = {ad::compose<8, 3, double>(st.kIn, lr), ad::compose<8, 3, double>(st.kOut, lr),
+                    ad::compose<8, 3, double>(st.kTwist, lr)};
+  // As T (a no-op for double); the shape terms negated.
+  static constexpr Iota<6> id6(0);
+  static constexpr Iota<8> id8(0);
+  const H6* sh[5] = {&shape.wa1, &shape.wa2, &shape.wb1, &shape.wb2, &shape.psiRest};
+  ad::Hess<6, T> negShape[5];
+  ad::Hess<8, T> kT[3];
+  for (int j = 0; j < 5; ++j) negShape[j] = -ad::liftAs<6, 6, T>(*sh[j], id6.s);
+  for (int j = 0; j < 3; ++j) kT[j] = ad::liftAs<8, 8, T>(kc[j], id8.s);
+
+  // Outer variables: the differences current - rest of the four curvature
+  // components and of the reference twist (each a function of the x locals
+  // plus one of the p locals), theta1 - theta0, and the three stiffnesses;
+  // bendTwistCombine with zero rest curvature and twist is the energy.
+  constexpr int M = 9;
+  using HO = ad::Hess<M, T>;
+  const HX* cs[5] = {&cur.wa1, &cur.wa2, &cur.wb1, &cur.wb2, &cur.psi};
+  HO y[M];
+  for (int j = 0; j < 5; ++j) y[j].makeVariable(cs[j]->v + negShape[j].v, j);
+  const T th0 = TW ? seedValue<T>(ls.xv[2 * D], xdir, 2 * D) : T(0.0);
+  const T th1 = TW ? seedValue<T>(ls.xv[2 * D + 1], xdir, 2 * D + 1) : T(0.0);
+  y[5].makeVariable(th1 - th0, 5);
+  for (int j = 0; j < 3; ++j) y[6 + j].makeVariable(kT[j].v, 6 + j);
+  const energies::BendTwistCurrent<HO> cw{y[0], y[1], y[2], y[3], y[4]};
+  const energies::BendTwistRest<HO> rw{HO(0.0), HO(0.0), HO(0.0), HO(0.0), y[6], y[7], y[8], HO(0.0)};
+  const HO f = energies::bendTwistCombine(cw, HO(0.0), y[5], rw, k.k);
+
+  static const T dth[2] = {T(-1.0), T(1.0)};
+  ad::Inner<T> in[M];
+  for (int j = 0; j < 5; ++j) in[j] = {ad::innerPart(*cs[j], 0), ad::innerPart(negShape[j], NX)};
+  in[5] = {dth, nullptr, TW ? 2 : 0, 2 * D};
+  for (int j = 0; j < 3; ++j) in[6 + j] = ad::inner(kT[j], NX);
+  return ad::compose<N, M, T>(f, in);
+}
+
+// Connection (K incident edges): differentiated in three layers and composed.
+//  1. The fit A = B Minv (connectionFit): B is a sum of products of an
+//     edge-state component (over that edge's D (+1) locals) and a rest
+//     quantity (wT T etc., over the p locals), accumulated exactly into the
+//     stencil's N variables (ad::addProduct); the rest frames and stiffnesses
+//     over their own rest edge and radii, lifted.
+//  2. R = polar(A) over A's 9 entries.
+//  3. Each edge's coupling energy (connectionEdgeEnergyOfFrame) over the
+//     connection edge's frame R F (itself over A and the rest edge), the
+//     edge's own x locals and its stiffnesses (16 variables in 3D with
+//     twist), composed and summed over the edges as a function of (A, the N
+//     locals); A is composed out last.
+template <int N, class T, int D, bool TW, int K>
+ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls, const double* xdir) {
+  constexpr int NX = KernelSize<ConnectionK<D, TW, K>>::nx, NP = KernelSize<ConnectionK<D, TW, K>>::np;
+  static_assert(N == NX + NP, "connection: x and p locals");
+  constexpr int MX = D + (TW ? 1 : 0);  // locals of one edge
+  // Edge states, each over its own locals (slots: x locals of edge i).
+  using HM = ad::Hess<MX, T>;
+  EdgeState<HM> st[K];
+  int xslots[K][4];
+  for (int i = 0; i < K; ++i) {
+    const int theta = D * K + i;
+    const int sl[4] = {D * i, D * i + 1, D == 3 ? D * i + 2 : theta, theta};
+    for (int j = 0; j < 4; ++j) xslots[i][j] = sl[j];
+    HM w[3];
+    for (int j = 0; j < D; ++j) w[j].makeVariable(seedValue<T>(ls.xv[D * i + j], xdir, D * i + j), j);
+    HM th(0.0);
+    if constexpr (TW) th.makeVariable(seedValue<T>(ls.xv[theta], xdir, theta), D);
+    st[i] = edgeState(embed<D>(w, k.off[i], *k.B), th, k.k.chartT[i], k.k.chartD[i]);
+  }
+  // Rest frames over each rest edge E_i; stiffnesses over (E_i, radii of the
+  // connection vertex, radii of the far vertex): p locals pslots[i].
+  using H3 = ad::Hess<3, double>;
+  using H7 = ad::Hess<7, double>;
+  FrameT<H3> F3[K];
+  energies::ConnectionEdgeStiffness<H7> ks[K];
+  int pslots[K][7];
+  for (int i = 0; i < K; ++i) {
+    const V3<H3> Ei(H3::variable(ls.pv[3 * i], 0), H3::variable(ls.pv[3 * i + 1], 1),
+                    H3::variable(ls.pv[3 * i + 2], 2));
+    F3[i] = restFrameOf(Ei, k.k.n[i]);
+    const int sl[7] = {3 * i, 3 * i + 1, 3 * i + 2, 3 * K, 3 * K + 1, 3 * K + 2 + 2 * i, 3 * K + 3 + 2 * i};
+    H7 q[7];
+    for (int j = 0; j < 7; ++j) {
+      pslots[i][j] = sl[j];
+      q[j].makeVariable(ls.pv[sl[j]], j);
+    }
+    ks[i] = energies::connectionEdgeStiffness(norm(V3<H7>(q[0], q[1], q[2])), q[3], q[4], q[5], q[6],
+                                              k.k.youngModulus, k.k.shearModulus);
+  }
+
+  // 1. The fit's rest side over the p locals (double), then B and A.
+  using HP = ad::Hess<NP, double>;
+  energies::ConnectionRest<HP, K> rest;
+  HP trB[K], beta[K];
+  for (int i = 0; i < K; ++i) {
+    const int* e3 = pslots[i];
+    auto liftV = [&](const V3<H3>& v) {
+      return V3<HP>(ad::lift<NP, 3>(v.x, e3), ad::lift<NP, 3>(v.y, e3), ad::lift<NP, 3>(v.z, e3));
+    };
+    rest.F[i] = {liftV(F3[i].t), liftV(F3[i].d1), liftV(F3[i].d2)};
+    trB[i] = ad::lift<NP, 7>(ks[i].trB, pslots[i]);
+    beta[i] = ad::lift<NP, 7>(ks[i].beta, pslots[i]);
+  }
+  energies::connectionFitWeights(trB, beta, rest);
+  using S = ad::Hess<N, T>;
+  energies::M3<S> B;  // zero
+  for (int i = 0; i < K; ++i) {
+    const V3<HM>* xs[3] = {&st[i].t, &st[i].m1, &st[i].m2};
+    const V3<HP>* fs[3] = {&rest.F[i].t, &rest.F[i].d1, &rest.F[i].d2};
+    const HP* ws[3] = {&rest.wT[i], &rest.wN[i], &rest.wN[i]};
+    for (int q = 0; q < 3; ++q)
+      for (int c = 0; c < 3; ++c) {
+        const HP G = (*fs[q])[c] * *ws[q];
+        for (int r = 0; r < 3; ++r) ad::addProduct<N, MX, NP, T>(B.a[r][c], (*xs[q])[r], xslots[i], G, NX);
+      }
+  }
+  static constexpr Iota<NP> ps(NX);
+  S Minv[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Minv[r][c] = ad::liftAs<N, NP, T>(rest.Minv.a[r][c], ps.s);
+  energies::M3<S> A;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) A.a[r][c] = B.a[r][0] * Minv[0][c] + B.a[r][1] * Minv[1][c] + B.a[r][2] * Minv[2][c];
+
+  // 2. R over A.
+  using H9 = ad::Hess<9, T>;
+  energies::M3<H9> a9;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) a9.a[r][c].makeVariable(A.a[r][c].v, 3 * r + c);
+  const energies::M3<H9> R9 = energies::polarRotationDirect(a9);
+
+  // 3. Edge energies. Per edge, the space (edge locals x_i | A | E_i | radii
+  // of the two ends): the connection edge's frame R F over (A, E_i), the
+  // energy over (R F, x_i, stiffnesses), composed into that space and added
+  // into (A, the N locals).
+  constexpr int ME = MX + 9 + 7;
+  constexpr int MF = 9 + MX + 3;  // outer: R F, x_i, kIn, kOut, kTwist
+  using H12 = ad::Hess<12, T>;
+  using HF = ad::Hess<MF, T>;
+  constexpr int NY = 9 + N;  // (A, the N locals)
+  ad::Hess<NY, T> acc;
+  static const T one(1.0);
+  static constexpr Iota<9> a12(0);
+  static constexpr Iota<3> e12(9);
+  static constexpr Iota<7> id7(0);
+  for (int i = 0; i < K; ++i) {
+    // R F over (A, E_i).
+    energies::M3<H12> R;
+    for (int m = 0; m < 9; ++m) R.a[m / 3][m % 3] = ad::lift<12, 9>(R9.a[m / 3][m % 3], a12.s);
+    auto liftF = [&](const V3<H3>& v) {
+      return V3<H12>(ad::liftAs<12, 3, T>(v.x, e12.s), ad::liftAs<12, 3, T>(v.y, e12.s),
+                     ad::liftAs<12, 3, T>(v.z, e12.s));
+    };
+    const FrameT<H12> F{liftF(F3[i].t), liftF(F3[i].d1), liftF(F3[i].d2)};
+    const FrameT<H12> RF = energies::rotatedFrame(R, F);
+    const H12* rf[9] = {&RF.t.x, &RF.t.y, &RF.t.z, &RF.d1.x, &RF.d1.y, &RF.d1.z, &RF.d2.x, &RF.d2.y, &RF.d2.z};
+    // The outer function.
+    HF y[9];
+    for (int m = 0; m < 9; ++m) y[m].makeVariable(rf[m]->v, m);
+    const FrameT<HF> Fb{V3<HF>(y[0], y[1], y[2]), V3<HF>(y[3], y[4], y[5]), V3<HF>(y[6], y[7], y[8])};
+    int es[MX];
+    for (int j = 0; j < MX; ++j) es[j] = 9 + j;
+    auto liftX = [&](const V3<HM>& v) {
+      return V3<HF>(ad::lift<MF, MX>(v.x, es), ad::lift<MF, MX>(v.y, es), ad::lift<MF, MX>(v.z, es));
+    };
+    const EdgeState<HF> sti{liftX(st[i].t), liftX(st[i].u), liftX(st[i].m1), liftX(st[i].m2)};
+    HF th(0.0);
+    if constexpr (TW) th.makeVariable(seedValue<T>(ls.xv[D * K + i], xdir, D * K + i), 9 + D);
+    const ad::Hess<7, T> kT[3] = {ad::liftAs<7, 7, T>(ks[i].kIn, id7.s), ad::liftAs<7, 7, T>(ks[i].kOut, id7.s),
+                                  ad::liftAs<7, 7, T>(ks[i].kTwist, id7.s)};
+    HF kv[3];
+    for (int j = 0; j < 3; ++j) kv[j].makeVariable(kT[j].v, 9 + MX + j);
+    const HF e =
+        energies::connectionEdgeEnergyOfFrame(Fb, sti, th, kv[0], kv[1], kv[2], k.k.bend, k.k.twist);
+    // Into (x_i | A | E_i | radii).
+    ad::Inner<T> in[MF];
+    for (int m = 0; m < 9; ++m) in[m] = ad::inner(*rf[m], MX);
+    for (int j = 0; j < MX; ++j) in[9 + j] = {&one, nullptr, 1, j};
+    for (int j = 0; j < 3; ++j) in[9 + MX + j] = ad::inner(kT[j], MX + 9);
+    const ad::Hess<ME, T> eA = ad::compose<ME, MF, T>(e, in);
+    int ys[ME];
+    for (int j = 0; j < MX; ++j) ys[j] = 9 + xslots[i][j];
+    for (int m = 0; m < 9; ++m) ys[MX + m] = m;
+    for (int j = 0; j < 7; ++j) ys[MX + 9 + j] = 9 + NX + pslots[i][j];
+    ad::addLifted(acc, eA, ys);
+  }
+  // A composed out: the energy over the N locals.
+  ad::Inner<T> in[NY];
+  for (int m = 0; m < 9; ++m) in[m] = ad::inner(A.a[m / 3][m % 3], 0);
+  for (int j = 0; j < N; ++j) in[9 + j] = {&one, nullptr, 1, j};
+  return ad::compose<N, NY, T>(acc, in);
+}
 
 // ------------------------------------------------------------------------
 // Joint (u, p) view of a stencil: the global variables it touches (unknowns
@@ -410,36 +744,67 @@ inline void buildJointMap(const LocalStencil& ls, const BuildCtx& c, JointMap& m
   }
 }
 
-// Dense gradient and Hessian of one stencil over its globals.
+// Gradient and lower-triangle Hessian (packed, row-major: (i, j), i >= j, at
+// i (i + 1) / 2 + j) of one stencil over its globals.
+struct RowOffsets {
+  int s[kMaxGlobal];
+  constexpr RowOffsets() : s() {
+    for (int i = 0; i < kMaxGlobal; ++i) s[i] = i * (i + 1) / 2;
+  }
+};
+inline constexpr RowOffsets kRowOffset{};
 struct GlobalBlock {
   double g[kMaxGlobal];
-  double H[kMaxGlobal][kMaxGlobal];
+  double L[kMaxGlobal * (kMaxGlobal + 1) / 2];
 };
 
 // Maps a kernel result over local variables onto the stencil's globals
-// (part: value or directional derivative of each entry).
+// (part: value or directional derivative of each entry): g = T^T g_local,
+// H = T^T H_local T with T the JointMap's local-to-global combinations;
+// only H's lower triangle is formed (an ordered contribution to H(r, c)
+// counts when r >= c).
 template <int N, class T>
 void toGlobals(const ad::Hess<N, T>& r, const JointMap& m, int nLocal, bool derivative, GlobalBlock& out) {
-  for (int i = 0; i < m.ng; ++i) {
-    out.g[i] = 0.0;
-    for (int j = 0; j < m.ng; ++j) out.H[i][j] = 0.0;
-  }
+  std::fill(out.g, out.g + m.ng, 0.0);
+  std::fill(out.L, out.L + m.ng * (m.ng + 1) / 2, 0.0);
   for (int k = 0; k < nLocal; ++k) {
     const double gk = partOf(r.g[k], derivative);
     if (gk == 0.0) continue;
     for (int t = 0; t < m.nterms[k]; ++t) out.g[m.tg[k][t]] += m.tc[k][t] * gk;
   }
-  for (int k = 0; k < nLocal; ++k)
-    for (int l = 0; l <= k; ++l) {
-      const double h = partOf(r.h[ad::Hess<N, T>::hidx(k, l)], derivative);
-      if (h == 0.0) continue;
-      for (int a = 0; a < m.nterms[k]; ++a)
-        for (int b = 0; b < m.nterms[l]; ++b) {
-          const double v = m.tc[k][a] * m.tc[l][b] * h;
-          out.H[m.tg[k][a]][m.tg[l][b]] += v;
-          if (k != l) out.H[m.tg[l][b]][m.tg[k][a]] += v;
+  const int* row = kRowOffset.s;
+  const auto* h = r.h.data();
+  for (int k = 0; k < nLocal; ++k) {
+    const int nk = m.nterms[k];
+    const int* gk = m.tg[k];
+    const double* ck = m.tc[k];
+    for (int l = 0; l < k; ++l, ++h) {
+      const double hkl = partOf(*h, derivative);
+      if (hkl == 0.0) continue;
+      const int nl = m.nterms[l];
+      for (int a = 0; a < nk; ++a) {
+        const int gr = gk[a];
+        const double ch = ck[a] * hkl;
+        for (int b = 0; b < nl; ++b) {
+          const int gc = m.tg[l][b];
+          const double v = ch * m.tc[l][b];
+          // (k, l) and (l, k): the lower one of H(gr, gc), H(gc, gr) twice
+          // on the diagonal, once otherwise.
+          if (gr > gc) out.L[row[gr] + gc] += v;
+          else if (gr < gc) out.L[row[gc] + gr] += v;
+          else out.L[row[gr] + gr] += 2.0 * v;
         }
+      }
     }
+    // (k, k): (a, b) and (b, a) are both visited; keep the lower one.
+    const double hkk = partOf(*h++, derivative);
+    if (hkk == 0.0) continue;
+    for (int a = 0; a < nk; ++a) {
+      const double ch = ck[a] * hkk;
+      for (int b = 0; b < nk; ++b)
+        if (gk[a] >= gk[b]) out.L[row[gk[a]] + gk[b]] += ch * ck[b];
+    }
+  }
 }
 
 }  // namespace rodmesh::detail

@@ -9,7 +9,13 @@
 #include <algorithm>
 #include <exception>
 #include <functional>
-#include <pthread.h>
+#include <stdexcept>
+#include <sys/mman.h>
+#include <ucontext.h>
+
+#if defined(__SANITIZE_ADDRESS__)
+#include <sanitizer/common_interface_defs.h>
+#endif
 
 namespace rodmesh {
 
@@ -17,35 +23,82 @@ using namespace detail;
 
 namespace {
 // Joint derivatives of large stencils (a six-valent connection has 56 local
-// variables: a Hessian scalar of 26 kB, and the kernel keeps hundreds of
-// them) need more stack than a default thread has: run on a thread with a
-// 1 GiB stack reservation (virtual; only what is touched is committed).
+// variables: a Hessian scalar with a direction is 26 kB, and the kernel keeps
+// dozens of them; about 2 MB of stack in all) may need more stack than the
+// calling thread has. They run on a stack owned by the calling thread: 64 MB
+// reserved once per thread (only touched pages are committed, and they stay
+// committed for the next call), entered by a context switch on the same
+// thread, so no thread is created and the work stays on the caller's CPU.
+constexpr std::size_t kLargeStackBytes = std::size_t(64) << 20;
+
+struct LargeStack {
+  void* base = nullptr;
+  LargeStack() {
+    void* p = mmap(nullptr, kLargeStackBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE,
+                   -1, 0);
+    if (p == MAP_FAILED) return;
+    mprotect(p, 4096, PROT_NONE);  // guard page at the bottom: an overflow faults
+    base = p;
+  }
+  ~LargeStack() {
+    if (base) munmap(base, kLargeStackBytes);
+  }
+  LargeStack(const LargeStack&) = delete;
+  LargeStack& operator=(const LargeStack&) = delete;
+};
+
+struct LargeStackCall {
+  const std::function<void()>* fn = nullptr;
+  std::exception_ptr error;
+  ucontext_t caller{}, callee{};
+#if defined(__SANITIZE_ADDRESS__)
+  void* fakeStack = nullptr;
+  const void* callerBottom = nullptr;
+  std::size_t callerSize = 0;
+#endif
+};
+
+thread_local LargeStackCall* tCall = nullptr;
+
+void largeStackEntry() {
+  LargeStackCall* call = tCall;
+#if defined(__SANITIZE_ADDRESS__)
+  __sanitizer_finish_switch_fiber(nullptr, &call->callerBottom, &call->callerSize);
+#endif
+  try {
+    (*call->fn)();
+  } catch (...) {
+    call->error = std::current_exception();
+  }
+#if defined(__SANITIZE_ADDRESS__)
+  __sanitizer_start_switch_fiber(nullptr, call->callerBottom, call->callerSize);
+#endif
+  // Returning resumes uc_link (the caller).
+}
+
 void runWithLargeStack(const std::function<void()>& fn) {
-  pthread_attr_t attr;
-  pthread_attr_init(&attr);
-  pthread_attr_setstacksize(&attr, std::size_t(1) << 30);
-  struct Payload {
-    const std::function<void()>* fn;
-    std::exception_ptr error;
-  } payload{&fn, nullptr};
-  auto trampoline = [](void* arg) -> void* {
-    auto* p = static_cast<Payload*>(arg);
-    try {
-      (*p->fn)();
-    } catch (...) {
-      p->error = std::current_exception();
-    }
-    return nullptr;
-  };
-  pthread_t thread;
-  if (pthread_create(&thread, &attr, trampoline, &payload) != 0) {
-    pthread_attr_destroy(&attr);
-    fn();  // fall back to the current thread
+  thread_local LargeStack stack;
+  if (tCall || !stack.base) {  // already on it, or no stack could be reserved
+    fn();
     return;
   }
-  pthread_join(thread, nullptr);
-  pthread_attr_destroy(&attr);
-  if (payload.error) std::rethrow_exception(payload.error);
+  LargeStackCall call;
+  call.fn = &fn;
+  getcontext(&call.callee);
+  call.callee.uc_stack.ss_sp = stack.base;
+  call.callee.uc_stack.ss_size = kLargeStackBytes;
+  call.callee.uc_link = &call.caller;
+  makecontext(&call.callee, largeStackEntry, 0);
+  tCall = &call;
+#if defined(__SANITIZE_ADDRESS__)
+  __sanitizer_start_switch_fiber(&call.fakeStack, stack.base, kLargeStackBytes);
+#endif
+  swapcontext(&call.caller, &call.callee);
+#if defined(__SANITIZE_ADDRESS__)
+  __sanitizer_finish_switch_fiber(call.fakeStack, nullptr, nullptr);
+#endif
+  tCall = nullptr;
+  if (call.error) std::rethrow_exception(call.error);
 }
 
 // Builds a CSC matrix pattern from per-column row lists.
@@ -65,6 +118,9 @@ Eigen::SparseMatrix<double> patternFrom(std::vector<std::vector<int>>& cols, int
   std::fill(m.valuePtr(), m.valuePtr() + outer[n], 0.0);
   return m;
 }
+
+// Joint value slots are stored as block << kSlotShift | index.
+constexpr int kSlotShift = 28;
 
 int slotOf(const Eigen::SparseMatrix<double>& m, int r, int c) {
   const int* b = m.innerIndexPtr() + m.outerIndexPtr()[c];
@@ -120,23 +176,35 @@ void PoseSystem::buildJointPattern() const {
   jp.Huu = patternFrom(uu, nDofs_);
   jp.Hup = patternFrom(up, nDofs_);
   jp.Hpp = patternFrom(pp, P);
-  jointUU_ = static_cast<int>(jp.Huu.nonZeros());
-  jointUP_ = static_cast<int>(jp.Hup.nonZeros());
+  if (std::max({jp.Huu.nonZeros(), jp.Hup.nonZeros(), jp.Hpp.nonZeros()}) >= (Eigen::Index(1) << kSlotShift))
+    throw std::length_error("joint derivative patterns too large for their slot encoding");
   jointSlots_.clear();
   jointStencils_.clear();
+  // Per stencil, per lower-triangle pair (i >= j) of its globals, the value
+  // slot it adds to, encoded as block << kSlotShift | index, block 0: Huu
+  // (lower triangle), 1: Hup, 2: Hpp.
+  auto enc = [](int block, int index) { return index < 0 ? -1 : (block << kSlotShift) | index; };
   for (const Globals& s : stencils) {
     const int ng = static_cast<int>(s.index.size());
     jointStencils_.push_back({static_cast<int>(jointSlots_.size()), ng});
     for (int i = 0; i < ng; ++i)
-      for (int j = 0; j < ng; ++j) {
+      for (int j = 0; j <= i; ++j) {
         const int a = s.index[i], b = s.index[j];
         int slot = -1;
-        if (!s.isP[i] && !s.isP[j]) slot = slotOf(jp.Huu, a, b);
-        else if (!s.isP[i] && s.isP[j]) slot = jointUU_ + slotOf(jp.Hup, a, b);
-        else if (s.isP[i] && s.isP[j] && a >= b) slot = jointUU_ + jointUP_ + slotOf(jp.Hpp, a, b);
+        if (!s.isP[i] && !s.isP[j]) slot = enc(0, slotOf(jp.Huu, std::max(a, b), std::min(a, b)));
+        else if (!s.isP[i] && s.isP[j]) slot = enc(1, slotOf(jp.Hup, a, b));
+        else if (s.isP[i] && !s.isP[j]) slot = enc(1, slotOf(jp.Hup, b, a));
+        else slot = enc(2, slotOf(jp.Hpp, std::max(a, b), std::min(a, b)));
         jointSlots_.push_back(slot);
       }
   }
+  // Huu's strictly upper entries, each with its lower transpose.
+  jointUpperFromLower_.clear();
+  for (int c = 0; c < jp.Huu.outerSize(); ++c)
+    for (int k = jp.Huu.outerIndexPtr()[c]; k < jp.Huu.outerIndexPtr()[c + 1]; ++k) {
+      const int r = jp.Huu.innerIndexPtr()[k];
+      if (r < c) jointUpperFromLower_.emplace_back(k, slotOf(jp.Huu, c, r));
+    }
   filter_ = savedFilter;
   jointReady_ = true;
 }
@@ -156,7 +224,7 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
   BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
   const bool derivative = v != nullptr;
   double* vals[3] = {out.Huu.valuePtr(), out.Hup.valuePtr(), out.Hpp.valuePtr()};
-  const int base[3] = {0, jointUU_, jointUU_ + jointUP_};
+  constexpr int kSlotMask = (1 << kSlotShift) - 1;
   auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
     using K = std::decay_t<decltype(kern)>;
     constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
@@ -167,7 +235,7 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
       for (int k = 0; k < ls.nx; ++k)
         for (int t = 0; t < m.nterms[k]; ++t)
           if (!m.isP[m.tg[k][t]]) dir[k] += m.tc[k][t] * (*v)[m.index[m.tg[k][t]]];
-    const ad::Hess<N, T> r = evalLocal<N, T, true>(kern, ls, derivative ? dir : nullptr);
+    const ad::Hess<N, T> r = evalJoint<N, T>(kern, ls, derivative ? dir : nullptr);
     out.energy += partOf(r.v, derivative);
     GlobalBlock gb;
     toGlobals<N, T>(r, m, ls.nx + ls.np, derivative, gb);
@@ -176,13 +244,13 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
     }
     const Stencil& st = jointStencils_[sidx];
     const int* slots = jointSlots_.data() + st.offset;
-    for (int i = 0; i < m.ng; ++i)
-      for (int j = 0; j < m.ng; ++j) {
-        const int s = slots[i * m.ng + j];
-        if (s < 0 || gb.H[i][j] == 0.0) continue;
-        const int blk = s >= base[2] ? 2 : (s >= base[1] ? 1 : 0);
-        vals[blk][s - base[blk]] += gb.H[i][j];
-      }
+    const int nl = m.ng * (m.ng + 1) / 2;
+    for (int e = 0; e < nl; ++e) {
+      const double h = gb.L[e];
+      if (h == 0.0) continue;
+      const int sl = slots[e];
+      if (sl >= 0) vals[sl >> kSlotShift][sl & kSlotMask] += h;
+    }
   };
   forEachStencil<D, TW, true>(ctx, visit);
 
@@ -247,6 +315,9 @@ void PoseSystem::evaluateJoint(const Eigen::VectorXd& u, const Design& d, JointD
       else runJoint<D, TW, double>(u, d, nullptr, out);
     });
   });
+  // Huu is symmetric: the stencils fill its lower triangle.
+  double* huu = out.Huu.valuePtr();
+  for (const auto& [upper, lower] : jointUpperFromLower_) huu[upper] = huu[lower];
 }
 
 JointDerivatives PoseSystem::joint(const Eigen::VectorXd& u, const Design& d) const {

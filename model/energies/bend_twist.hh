@@ -37,64 +37,91 @@ struct BendTwistConst {
 // Everything that depends on the design only.
 template <class P>
 struct BendTwistRest {
-  FrameT<P> F0, F1;              // rest frames of e0, e1
   P wa1, wa2, wb1, wb2;          // rest curvature: Kb.D2_0, Kb.D1_0, Kb.D2_1, Kb.D1_1
   P kIn, kOut, kTwist;           // B_in / (4 l), B_out / (4 l), beta / (2 l)
   P psiRest;                     // rest reference twist
 };
 
+// The rest quantities of the shape: rest curvature and reference twist, from
+// the rest frames of e0 and e1.
 template <class P>
-BendTwistRest<P> bendTwistRest(const V3<P>& E0, const V3<P>& E1, const P& rt, const P& rn, const BendTwistConst& c) {
-  BendTwistRest<P> r;
-  const P l = P(0.5) * (norm(E0) + norm(E1));
-  r.F0 = restFrameOf(E0, c.n0);
-  r.F1 = restFrameOf(E1, c.n1);
-  const V3<P> Kb = curvatureBinormal(r.F0.t, r.F1.t);
-  r.wa1 = dot(Kb, r.F0.d2);
-  r.wa2 = dot(Kb, r.F0.d1);
-  r.wb1 = dot(Kb, r.F1.d2);
-  r.wb2 = dot(Kb, r.F1.d1);
+void bendTwistRestShape(const FrameT<P>& F0, const FrameT<P>& F1, BendTwistRest<P>& r) {
+  const V3<P> Kb = curvatureBinormal(F0.t, F1.t);
+  r.wa1 = dot(Kb, F0.d2);
+  r.wa2 = dot(Kb, F0.d1);
+  r.wb1 = dot(Kb, F1.d2);
+  r.wb2 = dot(Kb, F1.d1);
+  r.psiRest = signedAngle(parallelTransport(F0.t, F1.t, F0.d1), F1.d1, F1.t);
+}
+
+// The stiffness coefficients from the vertex's rest length l and radii.
+template <class P>
+void bendTwistRestStiffness(const P& l, const P& rt, const P& rn, const BendTwistConst& c, BendTwistRest<P>& r) {
   r.kIn = stiffness::bendingIn(c.youngModulus, rt, rn) / (P(4.0) * l);
   r.kOut = stiffness::bendingOut(c.youngModulus, rt, rn) / (P(4.0) * l);
   r.kTwist = stiffness::twisting(c.shearModulus, rt, rn) / (P(2.0) * l);
-  r.psiRest = signedAngle(parallelTransport(r.F0.t, r.F1.t, r.F0.d1), r.F1.d1, r.F1.t);
+}
+
+// Rest length of the vertex (half the two rest edges).
+template <class P>
+P bendTwistRestLength(const P& len0, const P& len1) {
+  return P(0.5) * (len0 + len1);
+}
+
+template <class P>
+BendTwistRest<P> bendTwistRest(const V3<P>& E0, const V3<P>& E1, const P& rt, const P& rn, const BendTwistConst& c) {
+  BendTwistRest<P> r;
+  bendTwistRestShape(restFrameOf(E0, c.n0), restFrameOf(E1, c.n1), r);
+  bendTwistRestStiffness(bendTwistRestLength(norm(E0), norm(E1)), rt, rn, c, r);
   return r;
 }
 
-// The current frame of one edge: tangent, reference director, material
-// directors. Depends on that edge's vector and twist only, so simulation can
-// differentiate it over those 4 variables and lift the result (see
-// PoseSystem), which is much cheaper than differentiating over the stencil's 8.
+// Everything that depends on the current edges only (through their states,
+// see EdgeState in rod_math.hh): the curvature binormal's components along
+// the material directors, kb.m2_0, kb.m1_0, kb.m2_1, kb.m1_1, and the
+// reference twist psi (zero when bending / twist is off).
 template <class S>
-struct EdgeState {
-  V3<S> t, u, m1, m2;
+struct BendTwistCurrent {
+  S wa1, wa2, wb1, wb2, psi;
 };
 
 template <class S>
-EdgeState<S> edgeState(const V3<S>& e, const S& th, const Eigen::Vector3d& chartT, const Eigen::Vector3d& chartD) {
-  EdgeState<S> f;
-  f.t = normalized(e);
-  f.u = transportFromRest(V3<double>(chartT), f.t, V3<double>(chartD));
-  materialDirectors(f.t, f.u, th, f.m1, f.m2);
-  return f;
+BendTwistCurrent<S> bendTwistCurrent(const EdgeState<S>& a, const EdgeState<S>& b, const BendTwistConst& c) {
+  BendTwistCurrent<S> w{S(0.0), S(0.0), S(0.0), S(0.0), S(0.0)};
+  if (c.bend) {
+    const V3<S> kb = curvatureBinormal(a.t, b.t);
+    w.wa1 = dot(kb, a.m2);
+    w.wa2 = dot(kb, a.m1);
+    w.wb1 = dot(kb, b.m2);
+    w.wb2 = dot(kb, b.m1);
+  }
+  if (c.twist) w.psi = signedAngle(parallelTransport(a.t, b.t, a.u), b.u, b.t);
+  return w;
+}
+
+// The energy from the current and rest quantities: the only place the two meet
+// (joint design derivatives differentiate the two sides separately and
+// combine them here, see model/pose_system_detail.hh).
+template <class S, class P>
+S bendTwistCombine(const BendTwistCurrent<S>& w, const S& th0, const S& th1, const BendTwistRest<P>& r,
+                   const BendTwistConst& c) {
+  S energy(0.0);
+  if (c.bend) {
+    const S wa1 = w.wa1 - r.wa1, wa2 = w.wa2 - r.wa2;
+    const S wb1 = w.wb1 - r.wb1, wb2 = w.wb2 - r.wb2;
+    energy = (wa1 * wa1 + wb1 * wb1) * r.kIn + (wa2 * wa2 + wb2 * wb2) * r.kOut;
+  }
+  if (c.twist) {
+    const S tau = th1 - th0 + wrapAngle(w.psi - r.psiRest);
+    energy = energy + tau * tau * r.kTwist;
+  }
+  return energy;
 }
 
 template <class S, class P>
 S bendTwistFromStates(const EdgeState<S>& a, const EdgeState<S>& b, const S& th0, const S& th1,
                       const BendTwistRest<P>& r, const BendTwistConst& c) {
-  S energy(0.0);
-  if (c.bend) {
-    const V3<S> kb = curvatureBinormal(a.t, b.t);
-    const S wa1 = dot(kb, a.m2) - r.wa1, wa2 = dot(kb, a.m1) - r.wa2;
-    const S wb1 = dot(kb, b.m2) - r.wb1, wb2 = dot(kb, b.m1) - r.wb2;
-    energy = (wa1 * wa1 + wb1 * wb1) * r.kIn + (wa2 * wa2 + wb2 * wb2) * r.kOut;
-  }
-  if (c.twist) {
-    const S psi = signedAngle(parallelTransport(a.t, b.t, a.u), b.u, b.t);
-    const S tau = th1 - th0 + wrapAngle(psi - r.psiRest);
-    energy = energy + tau * tau * r.kTwist;
-  }
-  return energy;
+  return bendTwistCombine(bendTwistCurrent(a, b, c), th0, th1, r, c);
 }
 
 template <class S, class P>

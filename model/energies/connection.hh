@@ -20,10 +20,11 @@
 //
 // R is differentiated exactly to third order: R0 = polar(A) is computed in
 // double (SVD), then R = R0 Q(w) with Q the Cayley rotation, where w solves
-// axial(skew(Q(w)^T R0^T A)) = 0 (R^T A symmetric) by three chord-Newton
-// steps from w = 0 in the AD scalar. Each step multiplies the error by O(|dA|),
-// so the result agrees with the true polar factor to O(|dA|^4): its first,
-// second and third derivatives are exact.
+// axial(skew(Q(w)^T R0^T A)) = 0 (R^T A symmetric) by chord-Newton steps
+// from w = 0 in the AD scalar. Each step multiplies the error by O(|dA|), so
+// after k steps the result agrees with the true polar factor to
+// O(|dA|^(k+1)): its derivatives up to order k are exact. The scalar's order
+// of derivatives picks k (ad::Order: 2 for Hess<N>, 3 for Hess<N, Dual>).
 //
 // Local variables: x = e_i (3 each), theta_i (each, with twist); p = E_i (3
 // each), radii of the connection vertex (2), radii of each far vertex (2 each).
@@ -37,6 +38,8 @@
 namespace rodmesh::energies {
 
 constexpr int kMaxConnectionValence = 6;
+// polarRotationAD composes through A's entries above this many variables.
+constexpr int kPolarComposeMin = 12;
 
 template <class S>
 struct M3 {
@@ -80,25 +83,31 @@ M3<P> inverse3(const M3<P>& m) {
   return r;
 }
 
-// radii: [connection vertex, far vertex of edge 0, ..., far vertex of edge K-1],
-// each [r_t, r_n]; the coupling of edge i uses the mean of its two ends.
+// The coupling stiffness of one incident edge, over half the edge (len =
+// |E_i|), with the mean of the connection vertex's radii (rtC, rnC) and the
+// far vertex's (rtF, rnF); trB and beta weigh the edge in the fit.
+template <class P>
+struct ConnectionEdgeStiffness {
+  P kIn, kOut, kTwist, trB, beta;
+};
+
+template <class P>
+ConnectionEdgeStiffness<P> connectionEdgeStiffness(const P& len, const P& rtC, const P& rnC, const P& rtF,
+                                                   const P& rnF, double youngModulus, double shearModulus) {
+  const P rt = P(0.5) * (rtC + rtF);
+  const P rn = P(0.5) * (rnC + rnF);
+  const P bin = stiffness::bendingIn(youngModulus, rt, rn), bout = stiffness::bendingOut(youngModulus, rt, rn);
+  const P tw = stiffness::twisting(shearModulus, rt, rn);
+  const P l = P(0.5) * len;
+  return {bin / (P(4.0) * l), bout / (P(4.0) * l), tw / (P(2.0) * l), bin + bout, tw};
+}
+
+// The fit's weights and Minv (into r) from the rest frames r.F and each
+// edge's trB and beta (ConnectionEdgeStiffness).
 template <class P, int K>
-ConnectionRest<P, K> connectionRest(const V3<P>* E, const P* radii, const ConnectionConst<K>& c) {
-  ConnectionRest<P, K> r;
+void connectionFitWeights(const P* trB, const P* beta, ConnectionRest<P, K>& r) {
   P sumA(0.0), sumB(0.0);
-  P trB[K], beta[K];
   for (int i = 0; i < K; ++i) {
-    r.F[i] = restFrameOf(E[i], c.n[i]);
-    const P rt = P(0.5) * (radii[0] + radii[2 + 2 * i]);
-    const P rn = P(0.5) * (radii[1] + radii[3 + 2 * i]);
-    const P bin = stiffness::bendingIn(c.youngModulus, rt, rn), bout = stiffness::bendingOut(c.youngModulus, rt, rn);
-    const P tw = stiffness::twisting(c.shearModulus, rt, rn);
-    const P l = P(0.5) * norm(E[i]);
-    r.kIn[i] = bin / (P(4.0) * l);
-    r.kOut[i] = bout / (P(4.0) * l);
-    r.kTwist[i] = tw / (P(2.0) * l);
-    trB[i] = bin + bout;
-    beta[i] = tw;
     sumA = sumA + trB[i];
     sumB = sumB + beta[i];
   }
@@ -110,10 +119,31 @@ ConnectionRest<P, K> connectionRest(const V3<P>* E, const P* radii, const Connec
     r.wN[i] = beta[i] / sumB;
     const FrameT<P>& F = r.F[i];
     for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b)
+      for (int b = 0; b <= a; ++b)
         M.a[a][b] = M.a[a][b] + r.wT[i] * F.t[a] * F.t[b] + r.wN[i] * (F.d1[a] * F.d1[b] + F.d2[a] * F.d2[b]);
   }
+  for (int a = 0; a < 3; ++a)
+    for (int b = a + 1; b < 3; ++b) M.a[a][b] = M.a[b][a];  // symmetric
   r.Minv = inverse3(M);
+}
+
+// radii: [connection vertex, far vertex of edge 0, ..., far vertex of edge K-1],
+// each [r_t, r_n]; the coupling of edge i uses the mean of its two ends.
+template <class P, int K>
+ConnectionRest<P, K> connectionRest(const V3<P>* E, const P* radii, const ConnectionConst<K>& c) {
+  ConnectionRest<P, K> r;
+  P trB[K], beta[K];
+  for (int i = 0; i < K; ++i) {
+    r.F[i] = restFrameOf(E[i], c.n[i]);
+    const ConnectionEdgeStiffness<P> k = connectionEdgeStiffness(norm(E[i]), radii[0], radii[1], radii[2 + 2 * i],
+                                                                 radii[3 + 2 * i], c.youngModulus, c.shearModulus);
+    r.kIn[i] = k.kIn;
+    r.kOut[i] = k.kOut;
+    r.kTwist[i] = k.kTwist;
+    trB[i] = k.trB;
+    beta[i] = k.beta;
+  }
+  connectionFitWeights(trB, beta, r);
   return r;
 }
 
@@ -126,13 +156,20 @@ inline Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& A) {
   return U * V.transpose();
 }
 
-// The exact rotation R(A) in the AD scalar (see the header comment).
+// The exact rotation R(A) in the AD scalar (see the header comment),
+// differentiated through every operation in S.
 template <class S>
-M3<S> polarRotationAD(const M3<S>& A) {
+M3<S> polarRotationDirect(const M3<S>& A) {
   Eigen::Matrix3d A0;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) A0(i, j) = ad::value(A.a[i][j]);
   const Eigen::Matrix3d R0 = polarRotation(A0);
+  if constexpr (ad::Order<S>::value == 0) {  // a value: R0 itself
+    M3<S> R;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) R.a[i][j] = S(R0(i, j));
+    return R;
+  }
   // M = R0^T A.
   M3<S> M;
   for (int i = 0; i < 3; ++i)
@@ -152,11 +189,10 @@ M3<S> polarRotationAD(const M3<S>& A) {
   J.a[2][0] = J.a[2][0] - S(0.5) * k1;
   J.a[2][1] = J.a[2][1] + S(0.5) * k0;
   const M3<S> Jinv = inverse3(J);
-  V3<S> w(S(0.0), S(0.0), S(0.0));
-  M3<S> Q;
-  for (int step = 0; step < 4; ++step) {
-    // Cayley rotation with first-order term [w]: c = w / 2,
-    // Q = ((1 - c.c) I + 2 c c^T + 2 [c]) / (1 + c.c).
+  // Cayley rotation with first-order term [w]: c = w / 2,
+  // Q = ((1 - c.c) I + 2 c c^T + 2 [c]) / (1 + c.c).
+  auto cayley = [](const V3<S>& w) {
+    M3<S> Q;
     const V3<S> c = S(0.5) * w;
     const S cc = dot(c, c);
     const S inv = S(1.0) / (S(1.0) + cc);
@@ -171,19 +207,58 @@ M3<S> polarRotationAD(const M3<S>& A) {
     Q.a[2][1] = Q.a[2][1] + S(2.0) * c.x;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) Q.a[i][j] = Q.a[i][j] * inv;
-    if (step == 3) break;
+    return Q;
+  };
+  // One chord step per order of derivatives S carries (the first from
+  // w = 0, where Q = I).
+  constexpr int kSteps = ad::Order<S>::value;
+  V3<S> w(S(0.0), S(0.0), S(0.0));
+  for (int step = 0; step < kSteps; ++step) {
     // G = axial(skew(Q^T M)).
     M3<S> QM;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) QM.a[i][j] = Q.a[0][i] * M.a[0][j] + Q.a[1][i] * M.a[1][j] + Q.a[2][i] * M.a[2][j];
+    if (step == 0) {
+      QM = M;
+    } else {
+      const M3<S> Q = cayley(w);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) QM.a[i][j] = Q.a[0][i] * M.a[0][j] + Q.a[1][i] * M.a[1][j] + Q.a[2][i] * M.a[2][j];
+    }
     const V3<S> G(S(0.5) * (QM.a[2][1] - QM.a[1][2]), S(0.5) * (QM.a[0][2] - QM.a[2][0]),
                   S(0.5) * (QM.a[1][0] - QM.a[0][1]));
     for (int i = 0; i < 3; ++i) w[i] = w[i] - (Jinv.a[i][0] * G.x + Jinv.a[i][1] * G.y + Jinv.a[i][2] * G.z);
   }
+  const M3<S> Q = cayley(w);
   M3<S> R;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) R.a[i][j] = Q.a[0][j] * R0(i, 0) + Q.a[1][j] * R0(i, 1) + Q.a[2][j] * R0(i, 2);
   return R;
+}
+
+// R(A) in the AD scalar. Over many variables (a joint stencil's N > 9), R is
+// differentiated over A's 9 entries and composed with A's derivatives
+// (ad::compose, exact): far fewer operations on the large scalar.
+template <class S>
+M3<S> polarRotationAD(const M3<S>& A) {
+  if constexpr (!ad::IsHess<S>::value) {
+    return polarRotationDirect(A);
+  } else if constexpr (S::kN <= kPolarComposeMin) {
+    return polarRotationDirect(A);
+  } else {
+    using T = typename ad::IsHess<S>::scalar;
+    using H9 = ad::Hess<9, T>;
+    constexpr int N = S::kN;
+    M3<H9> a9;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) a9.a[i][j] = H9::variable(A.a[i][j].v, 3 * i + j);
+    const M3<H9> R9 = polarRotationDirect(a9);
+    ad::Inner<T> in[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) in[3 * i + j] = ad::inner(A.a[i][j], 0);
+    M3<S> R;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) R.a[i][j] = ad::compose<N, 9, T>(R9.a[i][j], in);
+    return R;
+  }
 }
 
 template <class S, class P>
@@ -192,43 +267,78 @@ V3<S> rotate(const M3<S>& R, const V3<P>& v) {
           R.a[2][0] * v.x + R.a[2][1] * v.y + R.a[2][2] * v.z};
 }
 
+// The best-fit linear map A = B Minv from the incident edges' current states
+// (EdgeState: tangent, reference and material directors; depend on one edge
+// each), B = sum_i wT t T^T + wN (m1 D1^T + m2 D2^T).
 template <class S, class P, int K>
-S connectionEnergy(const V3<S>* e, const S* th, const ConnectionRest<P, K>& r, const ConnectionConst<K>& c) {
-  V3<S> t[K], u[K], m1[K], m2[K];
+M3<S> connectionFit(const EdgeState<S>* st, const ConnectionRest<P, K>& r) {
   M3<S> A;
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) A.a[a][b] = S(0.0);
-  // B = sum_i wT t T^T + wN (m1 D1^T + m2 D2^T); A = B Minv.
   M3<S> B = A;
   for (int i = 0; i < K; ++i) {
-    t[i] = normalized(e[i]);
-    u[i] = transportFromRest(V3<double>(c.chartT[i]), t[i], V3<double>(c.chartD[i]));
-    materialDirectors(t[i], u[i], th[i], m1[i], m2[i]);
+    const V3<S>& t = st[i].t;
+    const V3<S>& m1 = st[i].m1;
+    const V3<S>& m2 = st[i].m2;
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b)
-        B.a[a][b] = B.a[a][b] + (t[i][a] * r.F[i].t[b]) * r.wT[i] +
-                    (m1[i][a] * r.F[i].d1[b] + m2[i][a] * r.F[i].d2[b]) * r.wN[i];
+        B.a[a][b] = B.a[a][b] + (t[a] * r.F[i].t[b]) * r.wT[i] +
+                    (m1[a] * r.F[i].d1[b] + m2[a] * r.F[i].d2[b]) * r.wN[i];
   }
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b)
       A.a[a][b] = B.a[a][0] * r.Minv.a[0][b] + B.a[a][1] * r.Minv.a[1][b] + B.a[a][2] * r.Minv.a[2][b];
-  const M3<S> R = polarRotationAD(A);
+  return A;
+}
 
+// The coupling energy of one incident edge (state st, twist th, stiffnesses)
+// with the connection edge of frame Fb = R F (F: the edge's rest frame).
+template <class S, class Q>
+S connectionEdgeEnergyOfFrame(const FrameT<S>& Fb, const EdgeState<S>& st, const S& th, const Q& kIn,
+                              const Q& kOut, const Q& kTwist, bool bend, bool twist) {
   S energy(0.0);
-  for (int i = 0; i < K; ++i) {
-    const V3<S> tb = rotate(R, r.F[i].t), d1b = rotate(R, r.F[i].d1), d2b = rotate(R, r.F[i].d2);
-    if (c.bend) {
-      const V3<S> kb = curvatureBinormal(tb, t[i]);
-      const S wf1 = dot(kb, d2b), wf2 = dot(kb, d1b);
-      const S we1 = dot(kb, m2[i]), we2 = dot(kb, m1[i]);
-      energy = energy + (wf1 * wf1 + we1 * we1) * r.kIn[i] + (wf2 * wf2 + we2 * we2) * r.kOut[i];
-    }
-    if (c.twist) {
-      const S tau = th[i] + signedAngle(parallelTransport(tb, t[i], d1b), u[i], t[i]);
-      energy = energy + tau * tau * r.kTwist[i];
-    }
+  if (bend) {
+    const V3<S> kb = curvatureBinormal(Fb.t, st.t);
+    const S wf1 = dot(kb, Fb.d2), wf2 = dot(kb, Fb.d1);
+    const S we1 = dot(kb, st.m2), we2 = dot(kb, st.m1);
+    energy = (wf1 * wf1 + we1 * we1) * kIn + (wf2 * wf2 + we2 * we2) * kOut;
+  }
+  if (twist) {
+    const S tau = th + signedAngle(parallelTransport(Fb.t, st.t, Fb.d1), st.u, st.t);
+    energy = energy + tau * tau * kTwist;
   }
   return energy;
+}
+
+// The connection edge's frame R F.
+template <class S, class Q>
+FrameT<S> rotatedFrame(const M3<S>& R, const FrameT<Q>& F) {
+  return {rotate(R, F.t), rotate(R, F.d1), rotate(R, F.d2)};
+}
+
+// The same with the connection's rotation R and the edge's rest frame F.
+template <class S, class Q>
+S connectionEdgeEnergy(const M3<S>& R, const EdgeState<S>& st, const S& th, const FrameT<Q>& F, const Q& kIn,
+                       const Q& kOut, const Q& kTwist, bool bend, bool twist) {
+  return connectionEdgeEnergyOfFrame(rotatedFrame(R, F), st, th, kIn, kOut, kTwist, bend, twist);
+}
+
+// The energy from the incident edges' current states and twists.
+template <class S, class P, int K>
+S connectionEnergyFromStates(const EdgeState<S>* st, const S* th, const ConnectionRest<P, K>& r,
+                             const ConnectionConst<K>& c) {
+  const M3<S> R = polarRotationAD(connectionFit(st, r));
+  S energy(0.0);
+  for (int i = 0; i < K; ++i)
+    energy = energy + connectionEdgeEnergy(R, st[i], th[i], r.F[i], r.kIn[i], r.kOut[i], r.kTwist[i], c.bend, c.twist);
+  return energy;
+}
+
+template <class S, class P, int K>
+S connectionEnergy(const V3<S>* e, const S* th, const ConnectionRest<P, K>& r, const ConnectionConst<K>& c) {
+  EdgeState<S> st[K];
+  for (int i = 0; i < K; ++i) st[i] = edgeState(e[i], th[i], c.chartT[i], c.chartD[i]);
+  return connectionEnergyFromStates(st, th, r, c);
 }
 
 }  // namespace rodmesh::energies

@@ -13,12 +13,28 @@ struct GravityConst {
   double density = 0.0;
 };
 
+// The edge's mass (design only).
+template <class S>
+S gravityMass(const V3<S>& E, const S& rtA, const S& rnA, const S& rtB, const S& rnB, const GravityConst& c) {
+  return S(0.5) * norm(E) *
+         (stiffness::massPerLength(c.density, rtA, rnA) + stiffness::massPerLength(c.density, rtB, rnB));
+}
+
+// g . (x_a + x_b) (current positions only).
+template <class S>
+S gravityHeight(const V3<S>& xa, const V3<S>& xb, const GravityConst& c) {
+  return dot(c.g, xa) + dot(c.g, xb);
+}
+
+template <class S>
+S gravityOf(const S& mass, const S& height) {
+  return -(S(0.5) * mass) * height;
+}
+
 template <class S>
 S gravityEnergy(const V3<S>& xa, const V3<S>& xb, const V3<S>& E, const S& rtA, const S& rnA, const S& rtB,
                 const S& rnB, const GravityConst& c) {
-  const S m = S(0.5) * norm(E) *
-              (stiffness::massPerLength(c.density, rtA, rnA) + stiffness::massPerLength(c.density, rtB, rnB));
-  return -(S(0.5) * m) * (dot(c.g, xa) + dot(c.g, xb));
+  return gravityOf(gravityMass(E, rtA, rnA, rtB, rnB, c), gravityHeight(xa, xb, c));
 }
 
 }  // namespace rodmesh::energies

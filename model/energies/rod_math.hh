@@ -117,6 +117,26 @@ inline void materialDirectors(const V3<S>& t, const V3<S>& u, const S& theta, V3
   m2 = c * v - s * u;
 }
 
+// The current frame of one edge: tangent, reference director (the chart
+// director chartD transported from the chart tangent chartT to the current
+// tangent), material directors. Depends on that edge's vector and twist
+// only, so callers can differentiate it over those few variables and lift
+// the result into a larger variable set (see PoseSystem), which is much
+// cheaper than differentiating it over a whole stencil's variables.
+template <class S>
+struct EdgeState {
+  V3<S> t, u, m1, m2;
+};
+
+template <class S>
+EdgeState<S> edgeState(const V3<S>& e, const S& th, const Eigen::Vector3d& chartT, const Eigen::Vector3d& chartD) {
+  EdgeState<S> f;
+  f.t = normalized(e);
+  f.u = transportFromRest(V3<double>(chartT), f.t, V3<double>(chartD));
+  materialDirectors(f.t, f.u, th, f.m1, f.m2);
+  return f;
+}
+
 // Wraps an angle difference into (-pi, pi]; a constant shift, so derivatives
 // pass through unchanged.
 template <class S>

@@ -32,10 +32,16 @@ StretchRest<P> stretchRest(const V3<P>& E, const P& rtA, const P& rnA, const P& 
   return {L, P(0.5) * k / L};
 }
 
+// From the current edge length |e|.
+template <class S, class P>
+S stretchEnergyOfLength(const S& len, const StretchRest<P>& r) {
+  const S d = len - r.length;
+  return d * d * r.halfKOverL;
+}
+
 template <class S, class P>
 S stretchEnergy(const V3<S>& e, const StretchRest<P>& r) {
-  const S d = norm(e) - r.length;
-  return d * d * r.halfKOverL;
+  return stretchEnergyOfLength(norm(e), r);
 }
 
 }  // namespace rodmesh::energies
