@@ -830,20 +830,24 @@ Archive readArchiveIsolated(const std::string& path) {
   std::string object;  // what the child was reading last
   std::string image, error;
   bool done = false, timedOut = false;
+  // The child's memory may have been damaged by the library: nothing it
+  // sends is trusted beyond what an archive of this size can need.
+  const std::uint64_t maxBytes = 2 * kBaseBudgetBytes + 2 * kBudgetPerFileByte * fileBytes;
   try {
-    auto deadline = deadlineFor(0);
+    auto deadline = deadlineFor(fileBytes);  // opening the file
     while (!done) {
       char header[9];
       if (!receive(in, header, sizeof header, deadline)) break;
       std::uint64_t n = 0;
       std::memcpy(&n, header + 1, 8);
+      if (n > maxBytes) break;
       std::string payload(static_cast<std::size_t>(n), '\0');
       if (!receive(in, payload.data(), payload.size(), deadlineFor(n))) break;
       if (header[0] == 'P' && n >= 8) {
         std::uint64_t bytes = 0;
         std::memcpy(&bytes, payload.data(), 8);
         object = payload.substr(8);
-        deadline = deadlineFor(bytes);
+        deadline = deadlineFor(std::min(bytes, maxBytes));
       } else if (header[0] == 'A') {
         image = std::move(payload);
         done = true;
@@ -854,13 +858,13 @@ Archive readArchiveIsolated(const std::string& path) {
     }
   } catch (const Timeout&) {
     timedOut = true;
-    ::kill(pid, SIGKILL);
   } catch (...) {
     ::kill(pid, SIGKILL);
     ::close(in);
     ::waitpid(pid, nullptr, 0);
     throw;
   }
+  if (!done) ::kill(pid, SIGKILL);  // timed out, or sent something no archive needs
   ::close(in);
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
