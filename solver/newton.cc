@@ -176,7 +176,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
           break;
         }
       }
-      if (!modified && (d.cwiseAbs().array() <= kCorrectionUlps * kEps * a.array()).all()) {
+      if (!modified && (d.cwiseAbs().array() <= kCorrectionUlps * kEps * u.cwiseAbs().array()).all()) {
         rep.converged = true;
         rep.outcome = Outcome::Converged;
         rep.roundoff = true;

@@ -2,15 +2,16 @@
 // energy with a sparse LDL^T factorization and an Armijo backtracking line
 // search. Where the Hessian is indefinite (buckling, snap-through) the step
 // uses the modified factor L |D| L^T (a descent direction with the Hessian's
-// own scaling); pivots at the round-off level of their own row (mechanisms:
+// own scaling); pivots at the round-off level of their own rows (mechanisms:
 // a rod free to swing about a pin, a sheet hinged on a line of pinned
-// vertices) are floored there, and such modified steps are limited to a
-// trust radius on the vertex displacements (grown after full steps, shrunk to
-// what the line search accepted), so that a zero-stiffness direction cannot
-// throw the state to infinity. A diagonal shift is the last resort when the
-// factorization fails. A converged state with negative curvature (a saddle,
-// such as a perfectly straight column above its buckling load) is left along
-// a direction of negative curvature, so that the solver ends at a stable
+// vertices) are floored there (solver/modified_ldlt.hh). Every step is
+// limited to a trust radius on the vertex displacements (the structure's size
+// to start with, grown after full steps it limited, shrunk to what the line
+// search accepted), so that a zero-stiffness direction cannot throw the state
+// to infinity. A diagonal shift is the last resort when the factorization
+// fails. A converged state with negative curvature (a saddle, such as a
+// perfectly straight column above its buckling load) is left along a
+// direction of negative curvature, so that the solver ends at a stable
 // equilibrium or says it could not.
 //
 // Convergence is judged on the force residual r (PoseSystem::forceResidual,
@@ -31,7 +32,7 @@
 //      1.1e-2 N, reached residual 2.1e-3 N, decrement at the floor 2.5e-19 J,
 //      round-off energy 8e-18 J, decrement one iteration earlier 4e-13 J);
 //   3. the Newton correction is below the resolution of every unknown
-//      (|d_i| <= 4 eps (|u_i| + s_i)) with an unmodified factorization.
+//      (|d_i| <= 4 eps |u_i|) with an unmodified factorization.
 // Nothing here is tuned to a particular scene.
 #pragma once
 
