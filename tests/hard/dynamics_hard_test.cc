@@ -7,13 +7,12 @@
 // exactly; with huge steps it is a damped fixed-point iteration whose fixed
 // point is the static equilibrium; the twist of a straight rod under an end
 // moment is quasi-static (massless twists), M L / (G J) at once.
-#include "tests/hard/hard_util.hh"
-
-#include "model/stiffness.hh"
-
 #include <cmath>
 #include <string>
 #include <vector>
+
+#include "model/stiffness.hh"
+#include "tests/hard/hard_util.hh"
 
 namespace rodmesh::hardtest {
 namespace {
