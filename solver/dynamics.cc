@@ -155,6 +155,7 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
 
   Eigen::VectorXd gE(n), g(n), d(n), wTrial(n);
   double E = 0.0, ref = 0.0;
+  static const bool debug = std::getenv("RODMESH_DEBUG_DYNAMICS") != nullptr;
   for (int it = 0;; ++it) {
     auto ta = Clock::now();
     sys_.evaluate(w, design_, E, gE, true);
@@ -193,14 +194,24 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
     // Round-off (as in solver/newton.hh): the residual at the floor that
     // rounding the unknowns produces with a decrement below the energy of
     // that rounding, or a correction below the round-off of every unknown.
+    // The inertia term's own round-off is that of w - u_pred, eps (|w| +
+    // |u_pred|) per unknown, not the kernels' (a falling rod at w = 0 moves
+    // by g h^2 per step, however small: 1e-17 m at h = 1e-9 s).
     if (factor_.negative() == 0) {
       const Eigen::VectorXd a = roundoff::unknownScale(sys_, w);
-      if (res <= sys_.forceResidual(roundoff::residualFloor(A_, a)).norm() &&
-          factor_.stiffDecrement(-g) <= roundoff::energyFloor(A_, a))
+      const Eigen::ArrayXd inertia = eps * invH2 * mass_.array() * (w.array().abs() + uPred.array().abs());
+      const Eigen::VectorXd rho =
+          (roundoff::residualFloor(sys_.hessian(), a).array().square() + inertia.square()).sqrt().matrix();
+      const double energyFloor =
+          roundoff::energyFloor(sys_.hessian(), a) + (inertia.square() / (invH2 * mass_.array()).max(1e-300)).sum();
+      // Component by component: the inertia of a coordinate far from the
+      // origin must not hide the residual of one near it.
+      if ((sys_.forceResidual(g).cwiseAbs().array() <= sys_.forceResidual(rho).array()).all() &&
+          factor_.stiffDecrement(-g) <= energyFloor)
         break;
-      if (!factor_.modified() && (d.cwiseAbs().array() <= 4.0 * eps * a.array()).all()) break;
+      if (!factor_.modified() && (d.cwiseAbs().array() <= 4.0 * eps * w.cwiseAbs().array()).all()) break;
     }
-    if (std::getenv("RODMESH_DEBUG_DYN"))
+    if (debug)
       std::fprintf(stderr, "h %.3e it %d res %.3e E %.6e neg %d sing %d |d| %.3e\n", h, it, res, E, factor_.negative(),
                    factor_.singular(), d.lpNorm<Eigen::Infinity>());
     if (it >= opt_.maxNewtonIterations) {

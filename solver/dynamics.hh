@@ -79,7 +79,7 @@ struct DynamicsReport {
   // Why it stopped early: NumericalFailure (a step fell below minStep),
   // MaxIterations (maxSteps spent), TimeLimit; Converged when it reached the end.
   Outcome outcome = Outcome::Converged;
-  int steps = 0;   // accepted time steps
+  int steps = 0;  // accepted time steps
   int rejectedSteps = 0;
   int newtonIterations = 0;  // over all steps, rejected ones included
   int factorizations = 0;
@@ -139,7 +139,8 @@ class BackwardEuler {
   DynamicsReport rep_;
   Eigen::VectorXd u_, v_;
   double t_ = 0.0, h_ = 0.0;
-  double twistRejected_ = -1.0;  // twist change of the last step rejected for it (-1: none since the last accepted step)
+  double twistRejected_ =
+      -1.0;  // twist change of the last step rejected for it (-1: none since the last accepted step)
 
   // Newton matrix: Hessian of E plus M / h^2 on the diagonal (lower triangle);
   // its pattern is the Hessian's plus the diagonal, built once.

@@ -1,10 +1,10 @@
 #include "solver/modified_ldlt.hh"
 
-#include "model/pose_system.hh"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "model/pose_system.hh"
 
 namespace rodmesh {
 namespace {

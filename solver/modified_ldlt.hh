@@ -33,7 +33,6 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
-
 #include <vector>
 
 namespace rodmesh {

@@ -1,9 +1,6 @@
 #include "solver/newton.hh"
 
-#include "solver/modified_ldlt.hh"
-
 #include <Eigen/SparseCholesky>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -12,6 +9,8 @@
 #include <cstdlib>
 #include <limits>
 #include <sstream>
+
+#include "solver/modified_ldlt.hh"
 
 namespace rodmesh {
 namespace {
@@ -172,16 +171,17 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
           rep.outcome = Outcome::Converged;
           rep.roundoff = true;
           rep.message = "force residual " + format("%.3g", res) + " N at the round-off floor of this problem (" +
-                        format("%.3g", floorForce) + " N) with a Newton decrement below the energy of rounding the unknowns";
+                        format("%.3g", floorForce) +
+                        " N) with a Newton decrement below the energy of rounding the unknowns";
           break;
         }
       }
-      if (!modified && (d.cwiseAbs().array() <= kCorrectionUlps * kEps * a.array()).all()) {
+      if (!modified && (d.cwiseAbs().array() <= kCorrectionUlps * kEps * u.cwiseAbs().array()).all()) {
         rep.converged = true;
         rep.outcome = Outcome::Converged;
         rep.roundoff = true;
-        rep.message = "Newton correction below the round-off of every unknown (force residual " +
-                      format("%.3g", res) + " N, round-off floor " + format("%.3g", floorForce) + " N)";
+        rep.message = "Newton correction below the round-off of every unknown (force residual " + format("%.3g", res) +
+                      " N, round-off floor " + format("%.3g", floorForce) + " N)";
         break;
       }
     }
@@ -195,8 +195,8 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
         const std::size_t tenth = std::max<std::size_t>(1, hist.size() / 10);
         const double before = *std::min_element(hist.begin(), hist.end() - tenth);
         const double recent = *std::min_element(hist.end() - tenth, hist.end());
-        rep.progressing = hist.size() > tenth && energyAtTenth - E > 1e-12 * std::max(std::abs(E), 1e-300) &&
-                          recent < before;
+        rep.progressing =
+            hist.size() > tenth && energyAtTenth - E > 1e-12 * std::max(std::abs(E), 1e-300) && recent < before;
       }
       const bool saddle = (small || atFloor) && negative > 0;
       rep.message = saddle ? "reached an unstable equilibrium (negative curvature persists) at the iteration limit"
@@ -224,7 +224,11 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
       for (double s = 1.0; s > 1e-6; s *= 0.5) {
         uTrial = u + s * z;
         const double Et = system.energy(uTrial, design);
-        if (std::isfinite(Et) && Et < best) { best = Et; uBest = uTrial; break; }
+        if (std::isfinite(Et) && Et < best) {
+          best = Et;
+          uBest = uTrial;
+          break;
+        }
       }
       ++escapes;
       rep.escapes++;
@@ -261,7 +265,10 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
         rep.factorizations += factor.factorizations() - before;
         if (!ok) continue;
         d = factor.solve(-g);
-        if (d.allFinite() && d.dot(g) < 0) { haveDir = true; break; }
+        if (d.allFinite() && d.dot(g) < 0) {
+          haveDir = true;
+          break;
+        }
       }
       rep.factorSeconds += since(ta);
       if (!haveDir) {
@@ -449,13 +456,12 @@ Stability stability(PoseSystem& system, const Design& design, const Eigen::Vecto
   return out;
 }
 
-NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale,
-                         double tolerance, const NewtonOptions& opt) {
+NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale, double tolerance,
+                         const NewtonOptions& opt) {
   return newtonSolveUntil(system, design, u, scale, tolerance, opt, Clock::now(), false);
 }
 
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u,
-                              const NewtonOptions& opt) {
+NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u, const NewtonOptions& opt) {
   PoseState state = system.restState(design);
   state.u = u;
   const double saved = system.loadFactor();
@@ -465,12 +471,11 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
   return r;
 }
 
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state,
-                              const NewtonOptions& opt) {
+NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state, const NewtonOptions& opt) {
   const auto t0 = Clock::now();
   const bool hasDeadline = opt.timeLimit > 0;
-  const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                                 hasDeadline ? std::min(opt.timeLimit, 1e9) : 0.0));
+  const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(hasDeadline ? std::min(opt.timeLimit, 1e9) : 0.0));
   system.setLoadFactor(1.0);
   system.setCharts(state.charts);
   Eigen::VectorXd& u = state.u;
@@ -498,8 +503,9 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   if (!std::isfinite(scale)) {
     // Loads that overflow: nothing can be solved; the rest state is returned.
     total.outcome = Outcome::NumericalFailure;
-    total.message = "the loads overflow double precision (their force residual at rest is not finite): no equilibrium "
-                    "can be computed; the returned state is the rest state";
+    total.message =
+        "the loads overflow double precision (their force residual at rest is not finite): no equilibrium "
+        "can be computed; the returned state is the rest state";
     u = rest.u;
     system.setCharts(rest.charts);
     total.residualNorm = scale;
@@ -533,9 +539,8 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   Eigen::VectorXd uTry = u;
   NewtonReport r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
   merge(r);
-  for (int resume = 0; !r.converged && r.outcome == Outcome::MaxIterations && r.progressing &&
-                       resume < opt.maxLoadHalvings;
-       ++resume) {
+  for (int resume = 0;
+       !r.converged && r.outcome == Outcome::MaxIterations && r.progressing && resume < opt.maxLoadHalvings; ++resume) {
     r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
     merge(r);
     total.resumes++;
@@ -563,13 +568,16 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     bool failed = unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure, timedOut = false;
     bool negativeBeyond = false;  // a failed step beyond lam met negative curvature
     while (lam < 1.0 && !failed) {
-      if (hasDeadline && Clock::now() > deadline) { timedOut = true; break; }
+      if (hasDeadline && Clock::now() > deadline) {
+        timedOut = true;
+        break;
+      }
       const double next = std::min(1.0, lam + step);
       system.setLoadFactor(next);
       system.setCharts(chartsCur);
       uTry = uCur;
-      NewtonReport rs =
-          newtonSolveUntil(system, design, uTry, scale, next < 1.0 ? stepTol : opt.tolerance, opt, deadline, hasDeadline);
+      NewtonReport rs = newtonSolveUntil(system, design, uTry, scale, next < 1.0 ? stepTol : opt.tolerance, opt,
+                                         deadline, hasDeadline);
       merge(rs);
       r = rs;
       if (rs.converged) {
@@ -584,7 +592,10 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
       } else {
         negativeBeyond = negativeBeyond || rs.negativePivots > 0 || rs.escapes > 0 || rs.unstable;
         step *= 0.5;
-        if (step < minStep) { failed = true; break; }
+        if (step < minStep) {
+          failed = true;
+          break;
+        }
       }
     }
     u = uCur;
@@ -601,9 +612,9 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
       const Outcome lastOutcome = r.outcome;
       r.converged = false;
       std::ostringstream os;
-      const std::string returned =
-          lam > 0 ? "the returned state is the equilibrium at load factor " + format("%.6g", lam) + ", not at the full load"
-                  : std::string("the returned state is the rest state (load factor 0)");
+      const std::string returned = lam > 0 ? "the returned state is the equilibrium at load factor " +
+                                                 format("%.6g", lam) + ", not at the full load"
+                                           : std::string("the returned state is the rest state (load factor 0)");
       if (lastOutcome == Outcome::NumericalFailure && lam == 0.0) {
         // Even the smallest load step cannot be represented.
         r.outcome = Outcome::NumericalFailure;
@@ -614,7 +625,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         const Stability here = lam == 0.0 ? unloaded : stability(system, design, uCur);
         total.smallestEigenvalue = here.smallestEigenvalue;
         const bool lost = negativeBeyond || (here.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
-                                            here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
+                                             here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
         r.outcome = Outcome::Stalled;
         if (unloaded.zeroMode()) {
           os << "the unloaded structure has a mode without stiffness that double precision resolves (smallest "
@@ -630,13 +641,14 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
           os << "the equilibrium path was lost at load factor " << format("%.6g", lam)
              << ": no equilibrium was found within a load step of " << minStep
              << " beyond it (a limit or bifurcation point; smallest stiffness eigenvalue there "
-             << format("%.4g", here.smallestEigenvalue) << " N/m, unloaded " << format("%.4g", unloaded.smallestEigenvalue)
-             << " N/m" << (negativeBeyond ? "; negative curvature beyond it" : "") << "); " << returned
+             << format("%.4g", here.smallestEigenvalue) << " N/m, unloaded "
+             << format("%.4g", unloaded.smallestEigenvalue) << " N/m"
+             << (negativeBeyond ? "; negative curvature beyond it" : "") << "); " << returned
              << " (last attempt: " << last << ")";
         } else {
           os << "did not reach the full load: the load step fell below " << minStep << " at load factor "
-             << format("%.6g", lam) << " (smallest stiffness eigenvalue there " << format("%.4g", here.smallestEigenvalue)
-             << " N/m); " << returned << " (last attempt: " << last << ")";
+             << format("%.6g", lam) << " (smallest stiffness eigenvalue there "
+             << format("%.4g", here.smallestEigenvalue) << " N/m); " << returned << " (last attempt: " << last << ")";
         }
       }
       r.message = os.str();

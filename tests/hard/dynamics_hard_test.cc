@@ -7,13 +7,12 @@
 // exactly; with huge steps it is a damped fixed-point iteration whose fixed
 // point is the static equilibrium; the twist of a straight rod under an end
 // moment is quasi-static (massless twists), M L / (G J) at once.
-#include "tests/hard/hard_util.hh"
-
-#include "model/stiffness.hh"
-
 #include <cmath>
 #include <string>
 #include <vector>
+
+#include "model/stiffness.hh"
+#include "tests/hard/hard_util.hh"
 
 namespace rodmesh::hardtest {
 namespace {
@@ -23,13 +22,16 @@ const Material kSoft{1e7, 0.4, 1000.0};
 
 using HardDynamics = HardCase;
 
-// A free rod (nothing held) falling under gravity with constant steps at the
-// smallest --max-step the duration allows (duration / 1e5; here 5e4 steps).
+// A free rod (nothing held) falling under gravity with constant steps of
+// 1e-9 s (5e4 steps; the smallest --max-step allowed for this duration is
+// half that). Each step moves it by ~1e-17 m, far below the resolution of
+// its x coordinates (0.1 m): before, the Newton correction counted as
+// round-off and the rod never moved.
 TEST_F(HardDynamics, FreeFallWithTinySteps) {
-  const double T = 5e-4, h = 1e-8, g = 9.81;
+  const double T = 5e-5, h = 1e-9, g = 9.81;
   Scene s = straightRod(2, 0.1, 0.002, kSoft);
   s.gravity = Vec3(0, 0, -g);
-  const RunResult run = simulate(s, "--dynamic --duration 5e-4 --max-step 1e-8");
+  const RunResult run = simulate(s, "--dynamic --duration 5e-5 --max-step 1e-9");
   ASSERT_EQ(run.status, 0) << run.err;
   const Archive a = archive();
   EXPECT_TRUE(archiveFinite(a));

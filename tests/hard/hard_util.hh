@@ -3,11 +3,6 @@
 // user and the acceptance checks do) and reads back the archive.
 #pragma once
 
-#include "io/archive.hh"
-#include "io/scene_writer.hh"
-#include "model/scene.hh"
-#include "tests/cli/cli_util.hh"
-
 #include <gtest/gtest.h>
 #include <hdf5.h>
 #include <stdlib.h>
@@ -17,6 +12,11 @@
 #include <cstdlib>
 #include <string>
 #include <vector>
+
+#include "io/archive.hh"
+#include "io/scene_writer.hh"
+#include "model/scene.hh"
+#include "tests/cli/cli_util.hh"
 
 namespace rodmesh::hardtest {
 
@@ -94,7 +94,8 @@ class HardCase : public ::testing::Test {
 inline ::testing::AssertionResult archiveFinite(const Archive& a) {
   for (const ArchivePose& p : a.poses) {
     if (!p.positions.allFinite()) return ::testing::AssertionFailure() << "pose " << p.name << ": positions";
-    if (p.twist.size() > 0 && !p.twist.allFinite()) return ::testing::AssertionFailure() << "pose " << p.name << ": twist";
+    if (p.twist.size() > 0 && !p.twist.allFinite())
+      return ::testing::AssertionFailure() << "pose " << p.name << ": twist";
     if (!std::isfinite(p.residualNorm)) return ::testing::AssertionFailure() << "pose " << p.name << ": residual_norm";
   }
   for (const ArchiveFrames& f : a.frames) {
@@ -111,8 +112,8 @@ inline Vec3 row(const MatX3& m, int i) { return m.row(i).transpose(); }
 
 // A straight rod of `vertices` vertices from `origin` along unit `dir` over
 // `length`, uniform radii, one pose "p" without supports or loads.
-inline Scene straightRod(int vertices, double length, double radius, const Material& m,
-                         const Vec3& dir = Vec3::UnitX(), const Vec3& origin = Vec3::Zero()) {
+inline Scene straightRod(int vertices, double length, double radius, const Material& m, const Vec3& dir = Vec3::UnitX(),
+                         const Vec3& origin = Vec3::Zero()) {
   Scene s;
   s.sourcePath = "<hard case>";
   s.material = m;

@@ -14,12 +14,11 @@
 //   - small transverse tip loads: Euler-Bernoulli P L^3 / (3 EI), with the
 //     discretization's own trapezoid weights where the case says so;
 //   - axial loads: F L / (E A) (the stretching force is linear in strain).
-#include "tests/hard/hard_util.hh"
-
 #include "io/scene_reader.hh"
 #include "model/stiffness.hh"
 #include "solver/equilibrium.hh"
 #include "solver/newton.hh"
+#include "tests/hard/hard_util.hh"
 
 #ifdef RODMESH_HAS_GRID
 #include "meshing/grid.hh"
