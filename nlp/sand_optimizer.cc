@@ -59,12 +59,34 @@ class SandTnlp : public Ipopt::TNLP {
     return true;
   }
 
-  bool get_starting_point(Index n, bool initX, Number* x, bool initZ, Number*, Number*, Index, bool initLambda,
-                          Number*) override {
-    if (initZ || initLambda) return false;  // multipliers: Ipopt's least-squares estimate
-    if (initX) {
-      const Eigen::VectorXd x0 = nlp_.startingPoint();
-      std::copy(x0.data(), x0.data() + n, x);
+  // Multipliers for a warm start (Ipopt's warm_start_init_point): the
+  // previous phase's, already rescaled to this phase's objective scale;
+  // empty: zero.
+  void setWarmMultipliers(std::vector<double> lambda, double mu) {
+    warmLambda_ = std::move(lambda);
+    warmMu_ = mu;
+  }
+
+  bool get_starting_point(Index n, bool initX, Number* x, bool initZ, Number* zL, Number* zU, Index m,
+                          bool initLambda, Number* lambda) override {
+    const Eigen::VectorXd x0 = nlp_.startingPoint();
+    if (initX) std::copy(x0.data(), x0.data() + n, x);
+    if (initLambda) {
+      if (warmLambda_.size() == static_cast<std::size_t>(m))
+        std::copy(warmLambda_.begin(), warmLambda_.end(), lambda);
+      else
+        std::fill(lambda, lambda + m, 0.0);
+    }
+    if (initZ) {
+      // Bound multipliers on the central path of the starting barrier
+      // parameter: z = mu / slack (the design variables changed with the
+      // phase, so the previous phase's bound multipliers do not apply).
+      std::vector<double> lo(n), hi(n);
+      nlp_.bounds(lo.data(), hi.data());
+      for (Index i = 0; i < n; ++i) {
+        zL[i] = std::isfinite(lo[i]) ? warmMu_ / std::max(x0[i] - lo[i], 1e-12) : 0.0;
+        zU[i] = std::isfinite(hi[i]) ? warmMu_ / std::max(hi[i] - x0[i], 1e-12) : 0.0;
+      }
     }
     return true;
   }
@@ -95,11 +117,12 @@ class SandTnlp : public Ipopt::TNLP {
     return nlp_.hessian(x, sigma, lambda, values);
   }
 
-  void finalize_solution(Ipopt::SolverReturn status, Index n, const Number* x, const Number*, const Number*, Index,
-                         const Number*, const Number*, Number, const Ipopt::IpoptData*,
+  void finalize_solution(Ipopt::SolverReturn status, Index n, const Number* x, const Number*, const Number*, Index m,
+                         const Number*, const Number* lambda, Number, const Ipopt::IpoptData*,
                          Ipopt::IpoptCalculatedQuantities*) override {
     status_ = status;
     if (x) final_.assign(x, x + n);
+    if (lambda) finalLambda_.assign(lambda, lambda + m);
   }
 
   bool intermediate_callback(Ipopt::AlgorithmMode, Index iter, Number, Number, Number infDu, Number, Number, Number,
@@ -120,13 +143,15 @@ class SandTnlp : public Ipopt::TNLP {
 
   Ipopt::SolverReturn status() const { return status_; }
   const std::vector<double>& finalPoint() const { return final_; }
+  const std::vector<double>& finalMultipliers() const { return finalLambda_; }
   int iterations() const { return iterations_; }
   StopReason stopReason() const { return stopReason_; }
 
  private:
   SandNlp& nlp_;
   Hooks hooks_;
-  std::vector<double> current_, final_;
+  std::vector<double> current_, final_, finalLambda_, warmLambda_;
+  double warmMu_ = 0.0;
   Ipopt::SolverReturn status_ = Ipopt::UNASSIGNED;
   int iterations_ = 0;
   StopReason stopReason_ = StopReason::None;
@@ -347,6 +372,8 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   int iterations = 0;
   double roundStart = res.objective;
   std::vector<PoseState> rawStates = states;  // Ipopt's own equilibria of the kept design
+  std::vector<double> warmLambda;             // the kept phase's constraint multipliers
+  double warmObjectiveScale = 1.0;            // and its objective scale f_s
 
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignPhase& phase = steps[ph].phase;
@@ -425,6 +452,19 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       return StopReason::None;
     };
     Ipopt::SmartPtr<SandTnlp> tnlp = new SandTnlp(nlp, hooks);
+    // Multipliers for `--ipopt warm_start_init_point=yes` (not the default:
+    // on the paper Sheet it took more iterations than Ipopt's least-squares
+    // estimate, see docs/optimization.md): the previous phase's constraint
+    // multipliers (same constraints and scaling; the objective is rescaled
+    // by f_s, so they scale by f_s(previous) / f_s(this phase)) and bound
+    // multipliers on the central path of mu_init.
+    {
+      double mu = 0.1;
+      o.GetNumericValue("mu_init", mu, "");
+      std::vector<double> lambda = warmLambda;
+      for (double& l : lambda) l *= warmObjectiveScale / scaling.objective;
+      tnlp->setWarmMultipliers(std::move(lambda), mu);
+    }
     o.SetIntegerValue("max_iter", remaining);
     const Ipopt::ApplicationReturnStatus st = app->OptimizeTNLP(Ipopt::GetRawPtr(tnlp));
     iterations += std::max(1, tnlp->iterations());
@@ -435,10 +475,12 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     // positions) and the objective did not rise.
     bool kept = false;
     std::vector<std::vector<double>> candidates;
-    if (tnlp->finalPoint().size() == static_cast<std::size_t>(nlp.numVariables()))
-      candidates.push_back(tnlp->finalPoint());
+    const bool haveFinal = tnlp->finalPoint().size() == static_cast<std::size_t>(nlp.numVariables());
+    if (haveFinal) candidates.push_back(tnlp->finalPoint());
     if (!bestIterate.second.empty()) candidates.push_back(bestIterate.second);
-    for (const std::vector<double>& point : candidates) {
+    warmLambda.clear();
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      const std::vector<double>& point = candidates[c];
       if (kept) break;
       const double* x = point.data();
       const ControlValues cand = nlp.controls(x);
@@ -459,6 +501,12 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
           states = polished;
           rawStates = raw;
           kept = true;
+          // Multipliers for the next phase: Ipopt's final ones, if that is
+          // the point kept.
+          if (c == 0 && haveFinal && tnlp->finalMultipliers().size() == static_cast<std::size_t>(nlp.numConstraints())) {
+            warmLambda = tnlp->finalMultipliers();
+            warmObjectiveScale = scaling.objective;
+          }
         }
       }
     }

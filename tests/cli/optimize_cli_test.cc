@@ -85,9 +85,10 @@ void OptimizeCli::checkRecovery(const std::string& args, const std::string& meth
   ASSERT_GE(a.history->objective.size(), 2u);
   // The reduced method's iterates are equilibria and never raise the
   // objective; SAND's are not equilibria (their violation is archived).
-  if (method == "reduced")
+  if (method == "reduced") {
     for (std::size_t i = 1; i < a.history->objective.size(); ++i)
       EXPECT_LE(a.history->objective[i], a.history->objective[i - 1] * (1 + 1e-12));
+  }
   if (method == "sand") {
     double worst = 0.0;
     for (double v : a.history->constraintViolation) worst = std::max(worst, v);
@@ -184,6 +185,10 @@ namespace rodmesh {
 namespace {
 
 TEST_F(OptimizeCli, SandIsTheDefaultAndRecoversAHiddenDesign) { checkRecovery("--max-iter 300", "sand"); }
+// Warm-started multipliers between phases (opt-in through Ipopt's option).
+TEST_F(OptimizeCli, SandWithWarmStartedMultipliersRecoversAHiddenDesign) {
+  checkRecovery("--max-iter 300 --ipopt warm_start_init_point=yes", "sand");
+}
 
 TEST_F(OptimizeCli, SandPassesIpoptOptionsAndReportsAnOptionsFile) {
   std::string err;

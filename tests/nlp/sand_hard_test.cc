@@ -59,7 +59,9 @@ void checkClean(const Scene& scene, const HardCase& c) {
   // positions, so judge the design on the former: never worse than the
   // initial design's.
   EXPECT_LE(rms, r.initialRms * (1 + 1e-9)) << "from rest " << rms << ", optimizer " << r.rms;
-  if (c.mustImprove) EXPECT_LT(rms, 0.9 * r.initialRms) << "from rest " << rms << ", optimizer " << r.rms;
+  if (c.mustImprove) {
+    EXPECT_LT(rms, 0.9 * r.initialRms) << "from rest " << rms << ", optimizer " << r.rms;
+  }
 }
 
 class SandHard : public testing::TestWithParam<HardCase> {};
