@@ -363,7 +363,8 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     const Outcome o = br.status.outcome;
     if (o == Outcome::TimeLimit || o == Outcome::Interrupted || o == Outcome::NumericalFailure) {
       stop = o;
-      message = br.status.message;
+      // The phase's BFGS had what was left of --time-limit; name the user's.
+      message = o == Outcome::TimeLimit ? "time limit reached" : br.status.message;
       break;
     }
     if (o == Outcome::MaxIterations && iterations >= opt.maxIterations) {
