@@ -42,18 +42,18 @@ ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
 LIMITS = {
     True: dict(  # --quick
         sheet=(3, 3, 11), tol_sheet=(2, 2, 7), tol_iter=5000, tol_time=12, tols=[1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8],
-        disc_cells=(3, 3), disc_k=[5, 7, 11, 21], disc_fine=61, disc_iter=100, disc_time=60,
+        disc_cells=(3, 3), disc_k=[5, 7, 11, 21], disc_fine=61, disc_iter=200, disc_time=90,
         fd_iter=400, fd_time=25, fdr_sheet=(2, 2, 5), fdr_iter=6, fdr_time=30,
         poses=[1, 2, 4, 8], scale_iter=8, scale_time=20,
         vert_cells=[(2, 2), (3, 3), (5, 4), (6, 6), (9, 8), (13, 13)], vert_iter=4, vert_time=40,
         threads_poses=4, t2_duration=0.2, t2_relax_time=10, paper_sheet=False),
     False: dict(  # full
-        sheet=None, tol_sheet=(3, 3, 11), tol_iter=10000, tol_time=180, tols=[1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8],
+        sheet=None, tol_sheet=(3, 3, 11), tol_iter=10000, tol_time=90, tols=[1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8],
         disc_cells=(4, 5), disc_k=[5, 7, 11, 13, 21], disc_fine=61, disc_iter=400, disc_time=600,
-        fd_iter=2000, fd_time=600, fdr_sheet=(3, 3, 6), fdr_iter=10, fdr_time=300,
+        fd_iter=3000, fd_time=300, fdr_sheet=(3, 3, 6), fdr_iter=10, fdr_time=300,
         poses=[1, 2, 3, 4, 6, 8], scale_iter=10, scale_time=120,
         vert_cells=[(2, 2), (3, 3), (5, 4), (6, 6), (9, 8), (13, 13), (18, 18), (26, 26)], vert_iter=4,
-        vert_time=300, threads_poses=8, t2_duration=1.0, t2_relax_time=300, paper_sheet=True),
+        vert_time=300, threads_poses=8, t2_duration=1.0, t2_relax_time=120, paper_sheet=True),
 }
 
 # The paper's Table 2 (Perez et al. 2015; Intel i7 4470K): N, dt (s), t (ms), T (s).
@@ -259,7 +259,7 @@ class Study:
             sp = self.path("disc_%d.json" % k)
             json.dump(sc, open(sp, "w"))
             out = self.path("disc_%d.h5" % k)
-            r = S.optimize(self.bin, sp, out, ["--method", "reduced"] +
+            r = S.optimize(self.bin, sp, out, ["--method", "reduced", "--schedule", "joint"] +
                            self.limits(self.L["disc_iter"], self.L["disc_time"]))
             runs[k] = r
             scene, polys = S.control_polygon(out)
@@ -299,8 +299,8 @@ class Study:
             "hidden design (radii and a vertical rest displacement, smooth functions of position: "
             "`sweeps_scenes.hidden_design`) simulated at the fine discretization K = %d (%d vertices). At each "
             "coarse K the targets are the fine targets at the coarse vertices (they are a subset, as K_fine - 1 "
-            "is a multiple of K - 1). The design optimized at K (`--method reduced`, radii and rest shape, "
-            "`--max-iter %d --time-limit %d`) is moved to the fine sheet through its archived control points "
+            "is a multiple of K - 1). The design optimized at K (`--method reduced --schedule joint`, radii and rest shape, the same "
+            "iteration budget at every K: `--max-iter %d --time-limit %d`) is moved to the fine sheet through its archived control points "
             "(`/design/control_points`: per rod, Bernstein control values at arc fractions; they do not depend on "
             "K — the script checks that the transfer reproduces the archived per-vertex design at K to 1e-12) "
             "and re-simulated there from rest; RMS fine is against the fine targets at all %d fine vertices. "
