@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+
 namespace rodmesh {
 namespace {
 
@@ -56,6 +58,7 @@ TEST_P(FdDesignDerivatives, AgreeWithTheExactAdjointGradient) {
   // radii and displacements are comparable.
   const Eigen::VectorXd a = ge.cwiseProduct(scale), b = gf.cwiseProduct(scale);
   const double rel = (b - a).norm() / a.norm();
+  RecordProperty("relative_error", std::to_string(rel));
   EXPECT_LT(rel, c.relativeError) << "relative error " << rel;
   // No single component is badly off (relative to the largest one).
   Eigen::Index worst;
