@@ -126,6 +126,17 @@ class Study:
         self.tmp = tempfile.mkdtemp(prefix="rodmesh_sweeps_")
         self.md = []
         self.t0 = time.perf_counter()
+        self.started = datetime.datetime.utcnow()
+        # The code that runs: the commit at the start, and whether tracked files differed from it.
+        try:
+            commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], stdout=subprocess.PIPE,
+                                    text=True).stdout.strip()
+            dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no"],
+                                   stdout=subprocess.PIPE, text=True).stdout.strip()
+        except OSError:
+            commit, dirty = "unknown", ""
+        self.commit = (commit, dirty)
+        self.parts = []
 
     def path(self, name):
         return os.path.join(self.tmp, name)
@@ -357,6 +368,8 @@ class Study:
         write_csv(os.path.join(self.out, "fd_vs_exact.csv"), rows)
         # Time to the same RMS: the larger of the two final RMS values, reached by both.
         e, f = runs["exact"], runs["fd"]
+        m = min(len(e["hist_rms"]), len(f["hist_rms"]))
+        path_diff = float(np.max(np.abs(np.asarray(f["hist_rms"][:m]) / np.asarray(e["hist_rms"][:m]) - 1)))
         common = max(min(e["hist_rms"]), min(f["hist_rms"]))
         te, tf = time_to_reach(e, common), time_to_reach(f, common)
         # Halvings of the RMS from the initial design, both recipes.
@@ -409,6 +422,9 @@ class Study:
                   [[x["scene"], x["mode"], x["status"], x["iterations"], fmt(x["time_s"]), fmt(x["rms_mm"], 4),
                     fmt(x["per_iteration_s"]), fmt(x["per_it_radii_l0_s"]), fmt(x["per_it_radii_l2_s"]),
                     fmt(x["per_it_rest_s"])] for x in rows]), "",
+            "Over the first %d iterations (as far as both runs went) the RMS of the two runs at equal "
+            "iteration numbers differs by at most %.1e relative: the finite-difference gradient follows the exact "
+            "method's path, only slower." % (m - 1, path_diff), "",
             "Same RMS (%s mm, the higher of the two runs' best): exact after %s s, fd after %s s (%s)." % (
                 fmt(common * 1e3, 4), fmt(te), fmt(tf),
                 ("fd takes %.1fx as long" % (tf / te)) if (te and tf) else "one run never reached it"), "",
@@ -568,13 +584,7 @@ class Study:
 
     # -- report -------------------------------------------------------------
     def header(self, load0, load1, elapsed):
-        try:
-            commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], stdout=subprocess.PIPE,
-                                    text=True).stdout.strip()
-            dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no"],
-                                   stdout=subprocess.PIPE, text=True).stdout.strip()
-        except OSError:
-            commit, dirty = "unknown", ""
+        commit, dirty = self.commit
         cpu = "unknown CPU"
         try:
             for line in open("/proc/cpuinfo"):
@@ -588,12 +598,12 @@ class Study:
             "# Design study: sweeps (issue #10, items 2 and 3)", "",
             "Regenerate: `/usr/bin/python3 benchmarks/study/sweeps.py --rodmesh build/apps/rodmesh --out OUTDIR%s`"
             % (" --quick" if self.quick else ""), "",
-            "Mode: %s. Run %s UTC, %.0f s in all. Commit %s%s. Machine: %s, %d logical CPUs, %.0f GiB, %s. "
+            "Parts run: %s." % ", ".join(self.parts), "",
+            "Mode: %s. Started %s UTC, %.0f s in all. Commit %s%s. Machine: %s, %d logical CPUs, %.0f GiB, %s. "
             "**The machine was shared** with up to four other jobs (builds, tests): load average %s before and "
             "%s after; every time below is wall clock, from one run each (no repeats), and is noisy at the "
             "level of tens of percent." % (
-                "quick (small sheets, short runs)" if self.quick else "full", datetime.datetime.utcnow()
-                .strftime("%Y-%m-%d %H:%M"), elapsed, commit, " (with uncommitted changes)" if dirty else "", cpu,
+                "quick (small sheets, short runs)" if self.quick else "full", self.started.strftime("%Y-%m-%d %H:%M"), elapsed, commit, " (with uncommitted changes)" if dirty else "", cpu,
                 os.cpu_count(), mem, platform.platform(), load0, load1), ""]
 
     def summary(self):
@@ -620,9 +630,9 @@ class Study:
                 parts.append("tiny sheet, all variables: exact %s s, fd %s s, fd-resolve %s s per iteration" % (
                     fmt(e), fmt(f), fmt(g)))
             out.append("- **The paper's finite differences against exact derivatives** (main scene): " +
-                       "; ".join(parts) + ". Both follow the same path (their gradients agree to ~1e-10 relative on the test network, "
-                       "tests/solver/fd_design_derivatives_test.cc), so the "
-                       "time to a given RMS grows by the same factor as the time per iteration.")
+                       "; ".join(parts) + ". Both follow the same path (gradients agree to ~1e-10 relative on the test network, "
+                       "tests/solver/fd_design_derivatives_test.cc; RMS at equal iterations below), so the "
+                       "time to a given RMS grows by the factor of the time per iteration.")
         if hasattr(self, "tol_rows"):
             for m in ("reduced", "sand"):
                 rr = [x for x in self.tol_rows if x["method"] == m]
@@ -665,6 +675,7 @@ def main():
     for name, fn in parts:
         if args.only and name not in args.only:
             continue
+        st.parts.append(name)
         try:
             fn()
         except (S.RunError, subprocess.TimeoutExpired) as e:
