@@ -368,8 +368,9 @@ class Study:
         write_csv(os.path.join(self.out, "fd_vs_exact.csv"), rows)
         # Time to the same RMS: the larger of the two final RMS values, reached by both.
         e, f = runs["exact"], runs["fd"]
-        m = min(len(e["hist_rms"]), len(f["hist_rms"]))
-        path_diff = float(np.max(np.abs(np.asarray(f["hist_rms"][:m]) / np.asarray(e["hist_rms"][:m]) - 1)))
+        n_common = min(len(e["hist_rms"]), len(f["hist_rms"]))
+        path_diff = float(np.max(np.abs(np.asarray(f["hist_rms"][:n_common]) /
+                                        np.asarray(e["hist_rms"][:n_common]) - 1)))
         common = max(min(e["hist_rms"]), min(f["hist_rms"]))
         te, tf = time_to_reach(e, common), time_to_reach(f, common)
         # Halvings of the RMS from the initial design, both recipes.
@@ -424,7 +425,7 @@ class Study:
                     fmt(x["per_it_rest_s"])] for x in rows]), "",
             "Over the first %d iterations (as far as both runs went) the RMS of the two runs at equal "
             "iteration numbers differs by at most %.1e relative: the finite-difference gradient follows the exact "
-            "method's path, only slower." % (m - 1, path_diff), "",
+            "method's path, only slower." % (n_common - 1, path_diff), "",
             "Same RMS (%s mm, the higher of the two runs' best): exact after %s s, fd after %s s (%s)." % (
                 fmt(common * 1e3, 4), fmt(te), fmt(tf),
                 ("fd takes %.1fx as long" % (tf / te)) if (te and tf) else "one run never reached it"), "",
@@ -678,7 +679,7 @@ def main():
         st.parts.append(name)
         try:
             fn()
-        except (S.RunError, subprocess.TimeoutExpired) as e:
+        except Exception as e:  # one part's failure is reported, the others still run
             failures.append("%s: %s" % (name, e))
             st.log("FAILED %s: %s" % (name, e))
             st.md += ["## %s: failed" % name, "", "```", str(e)[-1500:], "```", ""]

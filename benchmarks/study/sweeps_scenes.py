@@ -9,7 +9,6 @@ fractions j/(n-1), shared ends), which do not depend on the vertices per rod.
 """
 import json
 import math
-import os
 import re
 import subprocess
 import time
