@@ -607,6 +607,50 @@ class Study:
                 "quick (small sheets, short runs)" if self.quick else "full", self.started.strftime("%Y-%m-%d %H:%M"), elapsed, commit, " (with uncommitted changes)" if dirty else "", cpu,
                 os.cpu_count(), mem, platform.platform(), load0, load1), ""]
 
+    def weaknesses(self):
+        """Weak points this run's numbers show, stated rather than tuned away."""
+        w = []
+        for m in ("reduced", "sand"):
+            rr = [x for x in getattr(self, "tol_rows", []) if x["method"] == m]
+            stopped = [x for x in rr if "time limit" in x["message"]]
+            if stopped:
+                w.append("%s: at --tol %s the run was stopped by the time limit, not by the tolerance, so those "
+                         "rows measure the time budget" % (m, ", ".join("%g" % x["tol"] for x in stopped)))
+            rms = [x["rms_mm"] for x in rr]
+            if len(rms) > 2 and any(b > a * 1.05 for a, b in zip(rms, rms[1:])):
+                w.append("%s: the final RMS does not fall monotonically as --tol tightens" % m)
+        d = getattr(self, "disc_rows", [])
+        if d and d[0]["rms_fine_mm"] > 2 * d[0]["rms_own_mm"]:
+            w.append("a design optimized at K = %d fits its own discretization (%s mm) far better than the "
+                     "object it stands for (%s mm at the fine K): coarse rods over-fit" % (
+                         d[0]["k"], fmt(d[0]["rms_own_mm"], 3), fmt(d[0]["rms_fine_mm"], 3)))
+        sc = getattr(self, "scale", None)
+        if sc and sc["threads"] < 1.3:
+            w.append("a second thread gained %.2fx per iteration (poses are solved in parallel, but the 2 cores "
+                     "were shared with other jobs)" % sc["threads"])
+        t2 = getattr(self, "t2", [])
+        slow = [x for x in t2 if x["paper_step_ms"] and x["step_ms"] > x["paper_step_ms"]]
+        if slow:
+            w.append("a dynamic step is slower than the paper's on %s (%s ms against %s ms; backward Euler with "
+                     "Newton, about %s Newton iterations per step)" % (
+                         ", ".join(x["paper"] for x in slow), ", ".join(fmt(x["step_ms"]) for x in slow),
+                         ", ".join(fmt(x["paper_step_ms"]) for x in slow),
+                         fmt(float(np.mean([x["newton_per_step"] for x in slow])), 2)))
+        if t2 and not all(x["dt_s"] >= x["paper_dt_s"] for x in t2 if x["paper_dt_s"]):
+            w.append("our adaptive time steps are shorter than the paper's (dt column)")
+        unconv = [x for x in t2 if not x["relaxation_converged"]]
+        if unconv:
+            w.append("dynamic relaxation did not reach the force tolerance within its %d s limit on %d of %d "
+                     "scenes (Newton needs %s-%s s)" % (self.L["t2_relax_time"], len(unconv), len(t2),
+                                                       fmt(min(x["newton_s"] for x in t2)),
+                                                       fmt(max(x["newton_s"] for x in t2))))
+        fr = {(x["scene"], x["mode"]): x for x in getattr(self, "fd_rows", [])}
+        if ("main", "fd") in fr and fr[("main", "fd")]["rms_mm"] > 2 * fr[("main", "exact")]["rms_mm"]:
+            w.append("within the same time limit the paper's finite differences end at %s mm against %s mm with "
+                     "exact derivatives" % (fmt(fr[("main", "fd")]["rms_mm"], 3),
+                                            fmt(fr[("main", "exact")]["rms_mm"], 3)))
+        return ["- **Weak points this run shows**: " + "; ".join(w) + "."] if w else []
+
     def summary(self):
         out = ["## Answers", ""]
         h = getattr(self, "halv", [])
@@ -653,6 +697,7 @@ class Study:
                                ", ".join("%s %.0fx faster than the paper's T" % (x["paper"], x["paper_static_s"] /
                                                                                  x["newton_s"]) for x in rr),
                                ", ".join("%s %.2fx" % (x["paper"], x["step_ms"] / x["paper_step_ms"]) for x in rr)))
+        out += self.weaknesses()
         if hasattr(self, "scale"):
             s = self.scale
             out.append("- **Growth of cost**: time per iteration ~ poses^%.2f and ~ vertices^%.2f (fitted); "
