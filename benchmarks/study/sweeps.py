@@ -714,6 +714,13 @@ def main():
                     help="run only these parts: tolerance discretization fd scaling table2")
     args = ap.parse_args()
     st = Study(args)
+    try:
+        return run_parts(st, args)
+    finally:
+        subprocess.run(["rm", "-rf", st.tmp])
+
+
+def run_parts(st, args):
     load0 = " ".join(open("/proc/loadavg").read().split()[:3])
     parts = [("tolerance", st.tolerance), ("discretization", st.discretization), ("fd", st.fd_vs_exact),
              ("scaling", st.scaling), ("table2", st.table2)]
@@ -732,7 +739,6 @@ def main():
     md = st.header(load0, load1, time.perf_counter() - st.t0) + st.summary() + st.md
     open(os.path.join(st.out, "sweeps.md"), "w").write("\n".join(md) + "\n")
     st.log("wrote %s" % os.path.join(st.out, "sweeps.md"))
-    subprocess.run(["rm", "-rf", st.tmp])
     return 1 if failures else 0
 
 
