@@ -50,7 +50,7 @@ LIMITS = {
     False: dict(  # full
         sheet=None, tol_sheet=(3, 3, 11), tol_iter=10000, tol_time=90, tols=[1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8],
         disc_cells=(4, 5), disc_k=[5, 7, 11, 13, 21], disc_fine=61, disc_iter=400, disc_time=600,
-        fd_iter=3000, fd_time=300, fdr_sheet=(3, 3, 6), fdr_iter=10, fdr_time=300,
+        fd_iter=3000, fd_time=300, fdr_sheet=(3, 3, 6), fdr_iter=6, fdr_time=200,
         poses=[1, 2, 3, 4, 6, 8], scale_iter=10, scale_time=120,
         vert_cells=[(2, 2), (3, 3), (5, 4), (6, 6), (9, 8), (13, 13), (18, 18), (26, 26)], vert_iter=4,
         vert_time=300, threads_poses=8, t2_duration=1.0, t2_relax_time=120, paper_sheet=True),
