@@ -27,6 +27,7 @@ struct OptimizeOptions {
   std::string output;
   std::string method;  // sand (default when built) or reduced
   std::string schedule = "paper";
+  std::string designDerivatives;  // exact (default), fd or fd-resolve; --method reduced only
   std::vector<std::string> ipopt;
   DesignOptimizerOptions optimizer;
 };
@@ -43,6 +44,12 @@ void checkOptions(OptimizeOptions& o) {
   if (o.method.empty()) o.method = sandAvailable() ? "sand" : "reduced";
   if (o.method == "sand" && !sandAvailable())
     throw InputError("optimize: --method sand: the Ipopt optimizer is not part of this build; use --method reduced");
+  if (!o.designDerivatives.empty() && o.designDerivatives != "exact" && o.method != "reduced")
+    throw InputError("optimize: --design-derivatives " + o.designDerivatives +
+                     " applies to --method reduced only (--method " + o.method + " uses exact derivatives)");
+  o.optimizer.designDerivatives = o.designDerivatives == "fd"           ? DesignDerivatives::FiniteDifference
+                                  : o.designDerivatives == "fd-resolve" ? DesignDerivatives::FiniteDifferenceResolve
+                                                                        : DesignDerivatives::Exact;
   if (!o.ipopt.empty() && o.method != "sand")
     throw InputError("optimize: --ipopt applies to --method sand only, got --ipopt " + o.ipopt.front());
   if (o.optimizer.maxIterations < 0)
@@ -97,6 +104,11 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       ->capture_default_str();
   app->add_option("--threads", opts->optimizer.threads, "poses solved in parallel (results do not depend on it)")
       ->capture_default_str();
+  app->add_option("--design-derivatives", opts->designDerivatives,
+                  "--method reduced: exact (default: adjoint with exact dF/dp), fd (the paper's recipe: dF/dp by "
+                  "central differences of the forces at the equilibrium) or fd-resolve (central differences of the "
+                  "objective, every probe re-solving every pose)")
+      ->check(CLI::IsMember({"exact", "fd", "fd-resolve"}));
   app->add_option("--ipopt", opts->ipopt, "KEY=VALUE option passed to Ipopt (--method sand; repeatable)");
 
   Command c;
@@ -125,7 +137,11 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       std::cerr << "design: " << (scene.design.radii ? "radii " : "") << (scene.design.restShape ? "rest_shape " : "")
                 << "free; " << space.describe() << "; radius bounds [" << space.radiusLower() << ", "
                 << space.radiusUpper() << "] m\n";
-      std::cerr << "method: " << o.method << ", schedule " << o.schedule << ", " << o.optimizer.threads
+      std::cerr << "method: " << o.method
+                << (o.method == "reduced"
+                        ? std::string(" (design derivatives ") + designDerivativesName(o.optimizer.designDerivatives) + ")"
+                        : std::string())
+                << ", schedule " << o.schedule << ", " << o.optimizer.threads
                 << " thread(s)\n";
 #ifdef RODMESH_HAVE_NLP
       if (o.method == "sand" && ipoptOptionsFilePresent())
@@ -244,6 +260,8 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     s.peakMemoryBytes = r.peakMemoryBytes;
     if (!allSolved) s.message += "; a pose did not converge when re-solved from rest under the final design";
     a.optimize = s;
+    if (o.method == "reduced")
+      a.extraRootAttributes["design_derivatives"] = designDerivativesName(o.optimizer.designDerivatives);
     const bool converged = r.status.converged() && allSolved;
     a.status = converged ? "converged" : (r.status.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
     const std::optional<double> rms = overallRmsError(a);

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
 #include <sys/resource.h>
@@ -110,6 +111,40 @@ bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& state
   return all;
 }
 
+void ReducedObjective::setDesignDerivatives(DesignDerivatives mode, const Eigen::VectorXd& scale) {
+  derivatives_ = mode;
+  fdScale_ = scale;
+  if (mode != DesignDerivatives::Exact && fdScale_.size() != J_.cols())
+    throw std::invalid_argument("finite-difference design derivatives need one scale per design variable");
+}
+
+bool ReducedObjective::probeObjective(const Eigen::VectorXd& z, const std::vector<PoseState>& start, double& f) {
+  const Design d = space_.toDesign(space_.unpack(phase_, z, base_));
+  const int n = model_.numPoses();
+  std::vector<double> fk(n, 0.0);
+  std::vector<char> ok(n, 0);
+  forEachPose(n, threads_, [&](int p) {
+    try {
+      PoseSystem& sys = model_.pose(p);
+      PoseState st = start[p];
+      const NewtonReport r = solveEquilibrium(sys, d, st, newton_);
+      ok[p] = r.converged && st.loadFactor == 1.0;
+      if (ok[p]) {
+        sys.setState(st);
+        fk[p] = objective_.pose(sys, st.u, d, nullptr, nullptr);
+      }
+    } catch (...) {
+      ok[p] = 0;
+    }
+  });
+  f = 0.0;
+  for (int p = 0; p < n; ++p) {
+    if (!ok[p]) return false;
+    f += fk[p];
+  }
+  return std::isfinite(f);
+}
+
 bool ReducedObjective::evaluate(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g) {
   const auto t0 = Clock::now();
   const bool ok = evaluateImpl(z, f, g);
@@ -129,14 +164,15 @@ bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::
   }
   const int n = model_.numPoses();
   std::vector<double> fk(n, 0.0), ssk(n, 0.0);
-  std::vector<Eigen::VectorXd> dfdp(n);
+  std::vector<Eigen::VectorXd> dfdp(n), dfdz(n);
   std::vector<char> ok(n, 1);
+  const bool adjoint = g && derivatives_ != DesignDerivatives::FiniteDifferenceResolve;
   forEachPose(n, threads_, [&](int p) {
     try {
       PoseSystem& sys = model_.pose(p);
       sys.setState(states[p]);
       const Eigen::VectorXd& u = states[p].u;
-      if (!g) {
+      if (!adjoint) {
         fk[p] = objective_.pose(sys, u, d, nullptr, nullptr, &ssk[p]);
         return;
       }
@@ -158,7 +194,24 @@ bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::
         ok[p] = 0;
         return;
       }
-      dfdp[p] -= sys.designForceProduct(u, d, lambda);
+      if (derivatives_ == DesignDerivatives::Exact) {
+        dfdp[p] -= sys.designForceProduct(u, d, lambda);
+        return;
+      }
+      // The paper's recipe: dF/dz_i by central differences of the force at
+      // the fixed equilibrium u (same charts and load factor), contracted
+      // with lambda.
+      dfdz[p] = Eigen::VectorXd::Zero(z.size());
+      Eigen::VectorXd zp = z, Fp, Fm;
+      for (int i = 0; i < z.size(); ++i) {
+        const double h = fdForceStep * fdScale_[i];
+        zp[i] = z[i] + h;
+        sys.evaluate(u, space_.toDesign(space_.unpack(phase_, zp, base_)), e, Fp, false);
+        zp[i] = z[i] - h;
+        sys.evaluate(u, space_.toDesign(space_.unpack(phase_, zp, base_)), e, Fm, false);
+        zp[i] = z[i];
+        dfdz[p][i] = -lambda.dot(Fp - Fm) / (2 * h);
+      }
     } catch (...) {
       ok[p] = 0;
     }
@@ -171,10 +224,29 @@ bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::
     ss += ssk[p];
   }
   if (!std::isfinite(f)) return false;
-  if (g) {
+  if (adjoint) {
     Eigen::VectorXd total = Eigen::VectorXd::Zero(d.numParameters());
-    for (int p = 0; p < n; ++p) total += dfdp[p];
+    for (int p = 0; p < n; ++p)
+      if (dfdp[p].size()) total += dfdp[p];
     *g = J_.transpose() * total;
+    for (int p = 0; p < n; ++p)
+      if (dfdz[p].size()) *g += dfdz[p];
+    if (!g->allFinite()) return false;
+  } else if (g) {
+    // Central differences of the reduced objective, every probe re-solving
+    // every pose from the equilibrium at z.
+    g->resize(z.size());
+    Eigen::VectorXd zp = z;
+    for (int i = 0; i < z.size(); ++i) {
+      const double h = fdResolveStep * fdScale_[i];
+      double fp, fm;
+      zp[i] = z[i] + h;
+      if (!probeObjective(zp, states, fp)) return false;
+      zp[i] = z[i] - h;
+      if (!probeObjective(zp, states, fm)) return false;
+      zp[i] = z[i];
+      (*g)[i] = (fp - fm) / (2 * h);
+    }
     if (!g->allFinite()) return false;
   }
   lastZ_ = z;
@@ -189,6 +261,14 @@ void ReducedObjective::accept(const Eigen::VectorXd& z) {
 }
 
 // ------------------------------------------------------------------------
+
+const char* designDerivativesName(DesignDerivatives d) {
+  switch (d) {
+    case DesignDerivatives::FiniteDifference: return "fd";
+    case DesignDerivatives::FiniteDifferenceResolve: return "fd-resolve";
+    default: return "exact";
+  }
+}
 
 const char* phaseName(const DesignPhase& ph) {
   if (ph.radii && ph.restShape) return "joint";
@@ -303,6 +383,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     if (round > 0 && phase.restShape) roundStart = res.objective;
     ReducedObjective ro(model, space, objective, phase, res.controls, opt.newton, opt.threads, states);
     const Eigen::VectorXd s = designVariableScale(space, phase, scene);
+    if (opt.designDerivatives != DesignDerivatives::Exact) ro.setDesignDerivatives(opt.designDerivatives, s);
     Eigen::VectorXd lo, hi;
     space.bounds(phase, lo, hi);
     const Eigen::VectorXd y0 = space.pack(phase, res.controls).cwiseQuotient(s);

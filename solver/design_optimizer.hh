@@ -55,6 +55,27 @@ class TargetObjective {
 
 enum class Schedule { Paper, Joint };
 
+// How the reduced method gets the design part of its gradient
+// (docs/optimization.md, "Design derivatives").
+//   Exact: (dF_k/dp)^T lambda_k by dual-number AD (the default).
+//   FiniteDifference: the paper's recipe (§4.2: "we compute the force
+//     Jacobian dF/dq analytically, but evaluate dF/dp using finite
+//     differences"): every column dF_k/dz_i by central differences of the
+//     force at the fixed equilibrium u_k, step fdForceStep x the variable's
+//     scale; no equilibrium is re-solved.
+//   FiniteDifferenceResolve: central differences of the reduced objective
+//     f(u(z), z) itself, every probe re-solving every pose's equilibrium by
+//     Newton warm-started from the equilibrium at z; step fdResolveStep x
+//     the variable's scale.
+enum class DesignDerivatives { Exact, FiniteDifference, FiniteDifferenceResolve };
+const char* designDerivativesName(DesignDerivatives d);  // "exact", "fd", "fd-resolve"
+// Relative steps (times designVariableScale) of the two finite-difference
+// modes. Forces are evaluated to round-off, so the central-difference optimum
+// eps^(1/3) applies; re-solved objectives carry the solver's stopping error
+// too, so that mode takes a larger step (see docs/optimization.md).
+constexpr double fdForceStep = 6e-6;
+constexpr double fdResolveStep = 1e-4;
+
 struct DesignOptimizerOptions {
   int maxIterations = 200;     // optimizer iterations over the whole schedule
   double timeLimit = 0.0;      // s, 0 = none
@@ -62,6 +83,7 @@ struct DesignOptimizerOptions {
                                // its value at the start of the phase
   Schedule schedule = Schedule::Paper;
   int threads = 1;             // poses solved in parallel; results do not depend on it
+  DesignDerivatives designDerivatives = DesignDerivatives::Exact;  // reduced method only
   // When phases and the run stop (docs/optimization.md, "Schedule"):
   int maxLevelIterations = 40;          // BFGS iterations per radius level (paper schedule) ...
   int maxPhaseIterations = 100;         // ... and per rest-shape or radii phase of the alternation; the last
@@ -133,6 +155,10 @@ class ReducedObjective {
   ReducedObjective(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
                    const DesignPhase& phase, const ControlValues& base, const NewtonOptions& newton, int threads,
                    std::vector<PoseState> warm);
+  // Gradients by finite differences instead of the exact design derivatives
+  // (DesignDerivatives); `scale` (size of z) is each variable's scale, the
+  // step being the mode's relative step times it.
+  void setDesignDerivatives(DesignDerivatives mode, const Eigen::VectorXd& scale);
   // f(z), and its gradient when g != nullptr. False when an equilibrium
   // cannot be found under this design.
   bool evaluate(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g);
@@ -147,6 +173,8 @@ class ReducedObjective {
  private:
   bool evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g);
   bool solvePoses(const Design& d, std::vector<PoseState>& states);
+  // f at z solved from `start` (fd-resolve probes); false when a solve fails.
+  bool probeObjective(const Eigen::VectorXd& z, const std::vector<PoseState>& start, double& f);
   SceneModel& model_;
   const DesignSpace& space_;
   const TargetObjective& objective_;
@@ -156,6 +184,8 @@ class ReducedObjective {
   int threads_;
   Eigen::SparseMatrix<double> J_;
   std::vector<PoseState> warm_;
+  DesignDerivatives derivatives_ = DesignDerivatives::Exact;
+  Eigen::VectorXd fdScale_;
   // Cache of the last successful evaluation.
   Eigen::VectorXd lastZ_;
   std::vector<PoseState> lastStates_;
