@@ -388,7 +388,7 @@ def main():
             if not a.no_render:
                 subprocess.run([sys.executable, os.path.join(ROOT, "scripts", "render.py"),
                                 os.path.join(a.runs, "%s_%s.h5" % (e, m)), "-o", os.path.join(a.assets, png),
-                                "--dpi", "75"] + (["--view", "top"] if e == "smiley" else []), check=True)
+                                "--dpi", "75"] + (["--view", "top", "--panel-size", "7"] if e == "smiley" else []), check=True)
             w("**%s, %s** (final RMS %.3f mm)\n" % (e.capitalize(), METHOD_NAME[m], 1e3 * results[e][m]["final"]))
             w("![%s %s](%s/%s)\n" % (e, m, rel, png))
 
