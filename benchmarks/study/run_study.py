@@ -57,6 +57,11 @@ def main():
     runs_path = os.path.join(a.out, "runs.json")
     runs = json.load(open(runs_path)) if os.path.exists(runs_path) else {}
     binary = digest(a.rodmesh)
+    root = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+    git = lambda *args: subprocess.run(["git"] + list(args), cwd=root, stdout=subprocess.PIPE,
+                                       stderr=subprocess.DEVNULL, text=True).stdout.strip()
+    commit = git("rev-parse", "--short", "HEAD") + (" (with uncommitted changes)" if git(
+        "status", "--porcelain", "--untracked-files=no") else "")
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     failed = False
     for e in a.experiments.split(","):
@@ -87,7 +92,7 @@ def main():
                 os.environ.update(old_env)
             load1 = os.getloadavg()
             runs[key] = dict(spec, experiment=e, method=m, command=" ".join(cmd), exit=code, wall_s=wall,
-                             peak_rss_bytes=rss, started=started, load_before=load0[0], load_after=load1[0])
+                             peak_rss_bytes=rss, started=started, commit=commit, load_before=load0[0], load_after=load1[0])
             print("%s: exit %d, %.1f s wall, peak RSS %.0f MiB, load %.1f -> %.1f" % (
                 key, code, wall, rss / 2**20, load0[0], load1[0]), flush=True)
             if code not in (0, 1) or not os.path.exists(out):
