@@ -37,7 +37,7 @@ while [ $# -gt 0 ]; do
     --work) work="$2"; shift ;;
     --time-limit) limit="$2"; shift ;;
     --experiments) experiments="$2"; shift ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
     *) echo "design_study.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
   shift
