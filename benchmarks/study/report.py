@@ -243,8 +243,8 @@ def main():
           "on %d cores, so wall times are upper bounds of what an idle machine gives and vary by tens of "
           "percent between repeats; each run was made once." % (min(loads), max(loads), os.cpu_count() or 0))
     w("Every run: `rodmesh optimize SCENE --method M --schedule paper --threads 1 --time-limit %s "
-      "--max-iter %s` (OPENBLAS_NUM_THREADS=1). A run stopped by its time limit archives the best "
-      "design found so far (status `not_converged`); the paper's runs went to convergence, so where a "
+      "--max-iter %s` (OPENBLAS_NUM_THREADS=1). A run stopped by its time limit archives the design the "
+      "optimizer holds, re-solved from rest (status `not_converged`); the paper's runs went to convergence, so where a "
       "limit stopped ours, our RMS is what that many seconds buy, not where the method ends.\n" % (
           "/".join("%g" % x for x in limits),
           "/".join(sorted({str(r["max_iter"]) for e in exps for r in results[e].values()}))))
