@@ -138,11 +138,10 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                 << "free; " << space.describe() << "; radius bounds [" << space.radiusLower() << ", "
                 << space.radiusUpper() << "] m\n";
       std::cerr << "method: " << o.method
-                << (o.method == "reduced"
-                        ? std::string(" (design derivatives ") + designDerivativesName(o.optimizer.designDerivatives) + ")"
-                        : std::string())
-                << ", schedule " << o.schedule << ", " << o.optimizer.threads
-                << " thread(s)\n";
+                << (o.method == "reduced" ? std::string(" (design derivatives ") +
+                                                designDerivativesName(o.optimizer.designDerivatives) + ")"
+                                          : std::string())
+                << ", schedule " << o.schedule << ", " << o.optimizer.threads << " thread(s)\n";
 #ifdef RODMESH_HAVE_NLP
       if (o.method == "sand" && ipoptOptionsFilePresent())
         std::cerr << "ipopt: reading options from ./ipopt.opt (they override rodmesh's defaults; --ipopt overrides "
