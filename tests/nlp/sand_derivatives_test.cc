@@ -12,6 +12,7 @@
 #include "tests/testutil/taylor.hh"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -256,7 +257,9 @@ TEST(SandIpopt, DerivativeCheckerReportsNoErrors) {
     o.optimizer.maxIterations = 1;
     o.readOptionsFile = false;
     const std::string out =
-        (std::filesystem::temp_directory_path() / ("rodmesh_dercheck_" + std::to_string(planar) + ".txt")).string();
+        (std::filesystem::temp_directory_path() / ("rodmesh_dercheck_" + std::to_string(planar) + "_" +
+                                                      std::to_string(::getpid()) + ".txt"))
+            .string();
     o.ipopt = {{"derivative_test", "second-order"},
                {"derivative_test_perturbation", "2e-8"},
                {"derivative_test_tol", "1e-2"},
