@@ -1,0 +1,7 @@
+// First-order design product (dF/dp)^T lambda (PoseSystem::runProduct),
+// explicitly instantiated for the planar layouts (see
+// model/pose_system_impl.hh).
+#include "model/pose_system_impl.hh"
+
+RODMESH_INSTANTIATE_PRODUCT(2, true)
+RODMESH_INSTANTIATE_PRODUCT(2, false)
