@@ -35,7 +35,7 @@ Command registerExport(CLI::App& root, const GlobalOptions& global) {
   Command c;
   c.app = app;
   c.run = [o, app, vtk, &global]() -> int {
-    requireFiniteNumbers(*app, {"--resolution", "--fillet"});
+    requireFiniteNumbers(*app, {{"--resolution", "(0, 1] m, or 0 for the default"}, {"--fillet", "[0, 1] m"}});
     if (app->count("--fillet") > 0 && !(o->exp.solid.fillet >= 0))
       throw InputError("--fillet must be a blend radius in [0, 1] m (got " + app->get_option("--fillet")->results()[0] +
                        ")");

@@ -17,25 +17,25 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
   Command c;
   c.app = app;
   c.run = [path]() -> int {
-    Archive a;
-    try {
-      a = readArchive(*path);
-    } catch (const std::exception& e) {
-      throw InputError(e.what());
-    }
-    std::printf("archive   %s\n", path->c_str());
-    std::printf("format    %s (written by rodmesh %s)\n", a.format.c_str(), a.version.c_str());
-    std::printf("command   %s\n", a.command.c_str());
-    std::printf("status    %s\n", a.status.c_str());
+    // Every dataset and attribute checked before use (io/archive.hh); a bad
+    // archive is an InputError naming the file and the dataset.
+    const Archive a = loadArchive(*path).archive;
+    // Text from the archive is printed with control characters (terminal
+    // escapes included) shown as \xNN.
+    std::printf("archive   %s\n", printableText(*path).c_str());
+    std::printf("format    %s (written by rodmesh %s)\n", printableText(a.format).c_str(),
+                printableText(a.version).c_str());
+    std::printf("command   %s\n", printableText(a.command).c_str());
+    std::printf("status    %s\n", printableText(a.status).c_str());
     if (a.optimize) {
-      std::printf("optimize  method %s, %lld iterations in %s\n", a.optimize->method.c_str(), a.optimize->iterations,
-                  formatSeconds(a.optimize->timeSeconds).c_str());
-      if (!a.optimize->message.empty()) std::printf("          %s\n", a.optimize->message.c_str());
+      std::printf("optimize  method %s, %lld iterations in %s\n", printableText(a.optimize->method).c_str(),
+                  a.optimize->iterations, formatSeconds(a.optimize->timeSeconds).c_str());
+      if (!a.optimize->message.empty()) std::printf("          %s\n", printableText(a.optimize->message).c_str());
     }
     std::printf("model     %lld vertices, %lld edges, %lld rods, %lld connections, %lld unknowns per pose%s\n",
                 a.nVertices, a.nEdges, a.nRods, a.nConnections, a.dofsPerPose, a.planar ? " (planar)" : "");
-    std::printf("effects   %s\n", a.effects.c_str());
-    if (!a.effectsReason.empty()) std::printf("          %s\n", a.effectsReason.c_str());
+    std::printf("effects   %s\n", printableText(a.effects).c_str());
+    if (!a.effectsReason.empty()) std::printf("          %s\n", printableText(a.effectsReason).c_str());
     if (a.radii.rows() > 0) {
       std::printf("radii     r_t %.3f..%.3f mm, r_n %.3f..%.3f mm\n", a.radii.col(0).minCoeff() * 1e3,
                   a.radii.col(0).maxCoeff() * 1e3, a.radii.col(1).minCoeff() * 1e3, a.radii.col(1).maxCoeff() * 1e3);
@@ -56,8 +56,8 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
       double maxDisp = 0.0;
       if (a.restPositions.rows() == p.positions.rows())
         maxDisp = (p.positions - a.restPositions).rowwise().norm().maxCoeff();
-      std::printf("pose      %-16s %-13s residual %.3e N, max displacement %.4f mm", p.name.c_str(),
-                  p.status.empty() ? "" : p.status.c_str(), p.residualNorm, maxDisp * 1e3);
+      std::printf("pose      %-16s %-13s residual %.3e N, max displacement %.4f mm", printableText(p.name).c_str(),
+                  printableText(p.status).c_str(), p.residualNorm, maxDisp * 1e3);
       if (p.rmsError) std::printf(", RMS error %.4f mm", *p.rmsError * 1e3);
       if (p.rmsError && p.initialPositions.rows() == p.target.rows() && p.target.rows() > 0)
         std::printf(" (initially %.4f mm)",
@@ -69,7 +69,7 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
       if (const auto rms = overallRmsError(a)) std::printf("rms       %.4f mm over all poses\n", *rms * 1e3);
     }
     for (const ArchiveFrames& f : a.frames)
-      std::printf("frames    %-16s %zu frames over %.3f s\n", f.name.c_str(), f.positions.size(),
+      std::printf("frames    %-16s %zu frames over %.3f s\n", printableText(f.name).c_str(), f.positions.size(),
                   f.time.size() ? f.time[f.time.size() - 1] : 0.0);
     if (a.history && !a.history->iteration.empty()) {
       const ArchiveHistory& h = *a.history;

@@ -2,6 +2,7 @@
 // (and target poses from deformed copies of it).
 // rodmesh mesh --grid hex|quad|tri --size W H --cells NX NY --rod-vertices K
 // -o SCENE.json: a generated planar sheet (meshing/grid.hh). See docs/meshing.md.
+#include <cstdlib>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -30,6 +31,7 @@ struct MeshCliOptions {
   // --cells takes N (surface) or NX NY (--grid); see cellsOption below.
   std::vector<int> cells;
   std::string cellsSpill;  // a non-number taken by --cells: the SURFACE positional
+  std::string cellsBad;    // a --cells value that is no int ("2147483648", "1e3")
   // --grid
   std::string grid, fit = "regular", hexRows = "alternate";
   std::vector<double> size;
@@ -70,15 +72,26 @@ double parseNumber(const std::string& t, const std::string& flag) {
   throw InputError(flag + ": '" + t + "' is not a number");
 }
 
-// Flags whose values are real numbers: each must be finite (requireFiniteNumbers).
-const std::vector<std::string> kRealFlags = {
-    "--scale",       "--refinement",    "--tolerance",     "--merge",
-    "--edge-length", "--young-modulus", "--poisson-ratio", "--material-density",
-    "--radius",      "--radius-bounds", "--gravity",       "--fix-box",
-    "--size",        "--pull"};
-
 // --scale: a unit conversion (0.001 for millimetres, 0.0254 for inches).
 constexpr double kMinScale = 1e-6, kMaxScale = 1e6;
+
+// Flags whose values are real numbers: each must be finite
+// (requireFiniteNumbers), and what each allows (checked in full by
+// validateOptions / validateGridOptions).
+const std::vector<RealFlag> kRealFlags = {{"--scale", "[1e-06, 1e+06]"},
+                                          {"--refinement", "[1, 20] edges per cell radius"},
+                                          {"--tolerance", "[0, 1] x cell radius"},
+                                          {"--merge", "[0, 1] x median Voronoi edge"},
+                                          {"--edge-length", "(0, 100] m"},
+                                          {"--young-modulus", "(0, 1e+13] Pa"},
+                                          {"--poisson-ratio", "(-1, 0.5)"},
+                                          {"--material-density", "(0, 1e+05] kg/m^3"},
+                                          {"--radius", "(0, 100] m"},
+                                          {"--radius-bounds", "0 < MIN <= MAX <= 100 m"},
+                                          {"--gravity", "[-1e+04, 1e+04] m/s^2 per component"},
+                                          {"--fix-box", "finite coordinates in metres"},
+                                          {"--size", "[1e-06, 1e+06] m"},
+                                          {"--pull", "finite forces in newtons"}};
 
 std::string fmt(double v) {
   std::ostringstream o;
@@ -158,12 +171,15 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
            o->cells.clear();
            for (std::size_t i = 0; i < r.size(); ++i) {
              int v = 0;
+             char* end = nullptr;
+             std::strtod(r[i].c_str(), &end);
+             const bool numeric = end != r[i].c_str() && *end == '\0';
              if (parseInt(r[i], v))
                o->cells.push_back(v);
-             else if (i == 1 && r.size() == 2)
+             else if (i == 1 && r.size() == 2 && !numeric)
                o->cellsSpill = r[i];
-             else
-               return false;
+             else if (o->cellsBad.empty())
+               o->cellsBad = r[i];  // reported with the allowed range in run()
            }
            return true;
          },
@@ -176,6 +192,7 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
                   "(squares) or tri (equilateral triangles); needs --size and --cells NX NY");
   app->add_option("--size", o->size, "--grid: sheet size W H in metres (centred at the origin)")->expected(2);
   app->add_option("--rod-vertices", o->rodVertices, "--grid: vertices per rod K >= 2 (K - 1 edges per rod)")
+      ->check(wholeNumberIn(2, std::numeric_limits<int>::max()))
       ->capture_default_str();
   app->add_option("--fit", o->fit,
                   "--grid: 'regular' (regular cells, largest lattice that fits W x H, centred) or 'stretch' "
@@ -197,10 +214,12 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app->add_flag("--dual", o->dual, "dual of a decimated surface instead of a Voronoi tessellation");
   app->add_option("--faces", o->mesh.dualFaces, "with --dual: face count of the decimated surface")
+      ->check(wholeNumberIn(4, meshing::kMaxDualFaces))
       ->capture_default_str();
   app->add_option("--density", o->densityFile,
                   "per-vertex density file (one positive value per surface vertex); cells shrink as density^-1/4");
   app->add_option("--iterations", o->mesh.cvt.maxIterations, "maximum Lloyd iterations (1 to 1000)")
+      ->check(wholeNumberIn(1, meshing::kMaxLloydIterations))
       ->capture_default_str();
   app->add_option("--merge", o->mesh.cvt.mergeFraction,
                   "contract Voronoi edges shorter than this fraction of the median (0: never)")
@@ -209,6 +228,7 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
                   "refined-mesh edges per cell radius used by the CVT (1 to 20)")
       ->capture_default_str();
   app->add_option("--restarts", o->mesh.cvt.restarts, "Lloyd runs from different starts, lowest energy kept (1 to 20)")
+      ->check(wholeNumberIn(1, meshing::kMaxRestarts))
       ->capture_default_str();
   app->add_option("--tolerance", o->mesh.cvt.tolerance, "Lloyd stops when no seed moves more than this x cell radius")
       ->capture_default_str();
@@ -239,6 +259,7 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--design", o->design, "free design parameters: radii,rest_shape | radii | rest_shape | none")
       ->capture_default_str();
   app->add_option("--control-points", o->mesh.controlPointsPerRod, "design control points per rod")
+      ->check(wholeNumberIn(2, meshing::kMaxControlPoints))
       ->capture_default_str();
   app->add_option("--gravity", o->gravity, "gravity vector GX GY GZ [m/s^2] (default: none)")->expected(3);
 
@@ -252,6 +273,11 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
       o->surface = o->cellsSpill;
     }
     const bool grid = app->count("--grid") > 0;
+    if (!o->cellsBad.empty())
+      throw InputError("--cells must be " +
+                       (grid ? std::string("two whole numbers NX NY >= 1")
+                             : "a whole number in [2, " + std::to_string(meshing::kMaxCells) + "]") +
+                       " (got '" + o->cellsBad + "')");
     if (grid == !o->surface.empty())
       throw InputError(grid ? "give either a SURFACE or --grid, not both (got SURFACE '" + o->surface + "' and --grid)"
                             : "give a SURFACE to mesh or --grid hex|quad|tri to generate a sheet");

@@ -14,6 +14,9 @@
 #include "model/design_space.hh"
 #include "solver/design_optimizer.hh"
 #include "solver/equilibrium.hh"
+#ifdef RODMESH_HAVE_NLP
+#include "nlp/sand.hh"
+#endif
 
 namespace rodmesh::cli {
 
@@ -51,6 +54,19 @@ void checkOptions(OptimizeOptions& o) {
     throw InputError("optimize: --tol must lie in (0, 1), got " + std::to_string(o.optimizer.tolerance));
   if (o.optimizer.threads < 1 || o.optimizer.threads > 256)
     throw InputError("optimize: --threads must lie in [1, 256], got " + std::to_string(o.optimizer.threads));
+  for (const std::string& kv : o.ipopt) {
+    const std::size_t eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw InputError("optimize: --ipopt takes KEY=VALUE, got '" + kv + "'");
+#ifdef RODMESH_HAVE_NLP
+    if (std::string why = checkIpoptOption(kv.substr(0, eq), kv.substr(eq + 1)); !why.empty())
+      throw InputError("optimize: --ipopt " + kv + ": " + why);
+#endif
+  }
+#ifdef RODMESH_HAVE_NLP
+  if (o.method == "sand")
+    if (std::string why = checkIpoptOptionsFile(); !why.empty()) throw InputError("optimize: " + why);
+#endif
   o.optimizer.schedule = o.schedule == "joint" ? Schedule::Joint : Schedule::Paper;
   if (std::string why = o.optimizer.isValid(); !why.empty()) throw InputError("optimize: " + why);
 }
@@ -72,8 +88,8 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--time-limit", opts->optimizer.timeLimit, "wall-clock limit in seconds (0: none)")
       ->capture_default_str();
   app->add_option("--tol", opts->optimizer.tolerance,
-                  "relative tolerance: projected gradient against its value at the start of a phase, and relative "
-                  "decrease of the objective")
+                  "relative tolerance; reduced: projected gradient against its value at the start of a phase; sand: "
+                  "Ipopt's tol and dual_inf_tol, the objective being scaled to 1 at the start of each phase")
       ->capture_default_str();
   app->add_option("--schedule", opts->schedule,
                   "paper (radii by levels, then rest shape and radii alternating) or joint (everything at once)")
@@ -111,20 +127,49 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                 << space.radiusUpper() << "] m\n";
       std::cerr << "method: " << o.method << ", schedule " << o.schedule << ", " << o.optimizer.threads
                 << " thread(s)\n";
+#ifdef RODMESH_HAVE_NLP
+      if (o.method == "sand" && ipoptOptionsFilePresent())
+        std::cerr << "ipopt: reading options from ./ipopt.opt (they override rodmesh's defaults; --ipopt overrides "
+                     "them)\n";
+#endif
     }
 
     installInterruptFlag();
     o.optimizer.stopRequested = [] { return interruptRequested(); };
     auto progress = [&](const DesignIterate& it) {
       if (quiet) return;
-      std::fprintf(stderr, "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  |g| %.2e  step %.2e  viol 0 N  %s\n",
-                   it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.gradientNorm, it.step,
-                   formatSeconds(it.elapsed).c_str());
+      if (o.method == "sand")
+        std::fprintf(stderr, "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  viol %.2e N  dual inf %.2e  step %.2e  %s\n",
+                     it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.constraintViolation,
+                     it.dualInfeasibility, it.step, formatSeconds(it.elapsed).c_str());
+      else
+        std::fprintf(stderr, "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  |g| %.2e  step %.2e  viol 0 N  %s\n",
+                     it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.gradientNorm, it.step,
+                     formatSeconds(it.elapsed).c_str());
     };
-    const DesignOptimizerResult r = optimizeReduced(model, space, o.optimizer, progress);
-    if (!quiet)
+    DesignOptimizerResult r;
+#ifdef RODMESH_HAVE_NLP
+    if (o.method == "sand") {
+      SandOptions so;
+      so.optimizer = o.optimizer;
+      for (const std::string& kv : o.ipopt) {
+        const std::size_t eq = kv.find('=');
+        so.ipopt.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+      }
+      r = optimizeSand(model, space, so, progress);
+    } else {
+      r = optimizeReduced(model, space, o.optimizer, progress);
+    }
+#else
+    r = optimizeReduced(model, space, o.optimizer, progress);
+#endif
+    if (!quiet) {
       std::cerr << "optimizer: " << outcomeName(r.status.outcome) << " (" << r.status.message << "), " << r.iterations
                 << " iterations, " << r.evaluations << " evaluations, " << formatSeconds(r.timeSeconds) << "\n";
+      std::fprintf(stderr, "time: %.2f s in model evaluations, %.2f s in the optimizer%s; peak memory %.1f MiB\n",
+                   r.evaluationSeconds, r.solverSeconds, o.method == "sand" ? " (Ipopt, MUMPS)" : "",
+                   static_cast<double>(r.peakMemoryBytes) / (1024.0 * 1024.0));
+    }
 
     // Never report a design from the optimizer's own equilibria: re-solve
     // every pose from scratch (Newton from rest) under the final design.
@@ -173,7 +218,7 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       h.objective.push_back(it.objective);
       h.rmsError.push_back(it.rms);
       h.level.push_back(it.level);
-      h.constraintViolation.push_back(0.0);
+      h.constraintViolation.push_back(it.constraintViolation);
       h.gradientNorm.push_back(it.gradientNorm);
       h.phase.push_back(it.phase);
     }
@@ -194,6 +239,9 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     s.iterations = r.iterations;
     s.timeSeconds = r.timeSeconds;
     s.message = r.status.message;
+    s.evaluationSeconds = r.evaluationSeconds;
+    s.solverSeconds = r.solverSeconds;
+    s.peakMemoryBytes = r.peakMemoryBytes;
     if (!allSolved) s.message += "; a pose did not converge when re-solved from rest under the final design";
     a.optimize = s;
     const bool converged = r.status.converged() && allSolved;

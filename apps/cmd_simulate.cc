@@ -29,20 +29,8 @@ struct SimulateOptions {
   double duration = 0.0;
   double fps = 30.0;
   std::optional<double> ramp;  // s; default: see rampFor
+  double timeLimit = 0.0;      // s per pose; 0: none
   DynamicsOptions dynamics;
-};
-
-// Everything one pose contributes to the archive and to the progress output.
-struct PoseOutcome {
-  std::string name;
-  std::vector<Vec3> positions;
-  Eigen::VectorXd twist;
-  std::optional<double> rmsError;
-  std::string status;  // converged, not_converged, failed
-  int iterations = 0;
-  double residualNorm = 0.0;
-  double timeSeconds = 0.0;
-  int outOfPlaneStable = -1;  // planar Newton solves: 1 stable, 0 saddle in 3D, -1 not checked
 };
 
 constexpr double kMaxFrames = 1e6;
@@ -63,8 +51,24 @@ std::string number(double x) {
   return buf;
 }
 
+// Allowed ranges of the solver flags (usage errors name the flag, the value
+// and the range). --tol: relative force residual; --max-iter: Newton
+// iterations per load step (static), per time step (--dynamic), or force
+// evaluations (relaxation).
+constexpr double kMinTol = 1e-16, kMaxTol = 0.1;
+constexpr int kMaxNewtonIter = 10000, kMaxStepNewtonIter = 1000, kMaxRelaxIter = 100000000;
+
 void checkOptions(const SimulateOptions& o, const CLI::App& app) {
   auto given = [&](const char* flag) { return app.count(flag) > 0; };
+  if (given("--tol") && !(o.newton.tolerance >= kMinTol && o.newton.tolerance <= kMaxTol))
+    throw InputError("simulate: --tol " + number(o.newton.tolerance) + " is out of its allowed range [" +
+                     number(kMinTol) + ", " + number(kMaxTol) + "] (force residual relative to the load scale)");
+  if (given("--max-iter")) {
+    const int hi = o.dynamic ? kMaxStepNewtonIter : o.staticSolver == "relaxation" ? kMaxRelaxIter : kMaxNewtonIter;
+    if (o.newton.maxIterations < 1 || o.newton.maxIterations > hi)
+      throw InputError("simulate: --max-iter " + std::to_string(o.newton.maxIterations) +
+                       " is out of its allowed range [1, " + std::to_string(hi) + "]");
+  }
   if (!o.dynamic) {
     for (const char* flag : {"--duration", "--fps", "--max-step", "--ramp"})
       if (given(flag)) throw InputError(std::string("simulate: ") + flag + " needs --dynamic");
@@ -72,15 +76,25 @@ void checkOptions(const SimulateOptions& o, const CLI::App& app) {
     if (!given("--duration")) throw InputError("simulate: --dynamic needs --duration SECONDS");
     if (given("--static-solver")) throw InputError("simulate: --static-solver does not apply to --dynamic");
     if (!(o.duration > 0) || !std::isfinite(o.duration))
-      throw InputError("simulate: --duration must be a positive number of seconds, got " + number(o.duration));
+      throw InputError("simulate: --duration must be a finite positive number of seconds, allowed range (0, inf), got " +
+                       number(o.duration));
     if (!(o.fps > 0) || !std::isfinite(o.fps))
-      throw InputError("simulate: --fps must be positive, got " + number(o.fps));
-    if (!(o.dynamics.maxStep > 0) || !std::isfinite(o.dynamics.maxStep))
-      throw InputError("simulate: --max-step must be a positive number of seconds, got " + number(o.dynamics.maxStep));
+      throw InputError("simulate: --fps must be a finite positive number, allowed range (0, inf), got " + number(o.fps));
+    if (o.duration * o.fps > kMaxFrames)
+      throw InputError("simulate: --duration x --fps asks for " + number(o.duration * o.fps) +
+                       " frames; allowed range: at most 1e6 frames (lower --fps or --duration)");
+    // Every time step of a run counts against DynamicsOptions::maxSteps: a
+    // largest step that cannot cover the duration within them is absurd.
+    const double smallest = o.duration / static_cast<double>(o.dynamics.maxSteps);
+    if (!(o.dynamics.maxStep >= smallest) || !std::isfinite(o.dynamics.maxStep))
+      throw InputError("simulate: --max-step " + number(o.dynamics.maxStep) + " is out of its allowed range [" +
+                       number(smallest) + ", inf) seconds for --duration " + number(o.duration) + " (at most " +
+                       std::to_string(o.dynamics.maxSteps) + " time steps)");
     if (o.ramp && (!(*o.ramp >= 0) || !std::isfinite(*o.ramp)))
-      throw InputError("simulate: --ramp must be a non-negative number of seconds, got " + number(*o.ramp));
-    if (o.duration * o.fps > kMaxFrames) throw InputError("simulate: --duration x --fps asks for more than 1e6 frames");
-    if (std::string why = o.dynamics.isValid(); !why.empty()) throw InputError("simulate: " + why);
+      throw InputError("simulate: --ramp must be a finite non-negative number of seconds, allowed range [0, inf), got " +
+                       number(*o.ramp));
+    if (std::string why = checkDynamicRun(o.dynamics, o.duration, o.fps, kMaxFrames); !why.empty())
+      throw InputError("simulate: " + why);
   }
   if (std::string why = o.newton.isValid(); !why.empty()) throw InputError("simulate: " + why);
   if (o.staticSolver == "relaxation")
@@ -106,6 +120,8 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
          "--max-iter", opts->newton.maxIterations,
          "Newton iterations per load step (relaxation: iterations; --dynamic: Newton iterations per time step)")
       ->capture_default_str();
+  app->add_option("--time-limit", opts->timeLimit,
+                  "wall-clock seconds per pose, after which the solve stops with what it reached (default: none)");
   app->add_flag("--dynamic", opts->dynamic, "simulate the motion from rest (backward Euler, adaptive steps)");
   app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)");
   app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")->capture_default_str();
@@ -122,6 +138,12 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     const bool maxIterGiven = app->count("--max-iter") > 0;
     const bool tolGiven = app->count("--tol") > 0;
     o.relaxation.tolerance = o.newton.tolerance;
+    if (app->count("--time-limit") > 0) {
+      if (!(o.timeLimit > 0) || !std::isfinite(o.timeLimit))
+        throw InputError("simulate: --time-limit must be a finite positive number of seconds, allowed range (0, inf), "
+                         "got " + number(o.timeLimit));
+      o.newton.timeLimit = o.relaxation.timeLimit = o.dynamics.timeLimit = o.timeLimit;
+    }
     if (maxIterGiven) o.relaxation.maxIterations = o.newton.maxIterations;
     if (o.dynamic) {
       if (tolGiven) o.dynamics.tolerance = o.newton.tolerance;
@@ -155,9 +177,20 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     a.sceneJson = scene.sourceText;
     describeModel(a, model.network(), model.effects(), model.numPoses() > 0 ? model.pose(0).numDofs() : 0);
 
-    std::vector<PoseOutcome> outcomes;
-    auto reportPose = [&](int p, const PoseOutcome& r, const std::string& details, const std::string& reason) {
+    // Every pose goes through the archive builders shared with `optimize`
+    // (apps/cli_common.hh); the progress line reads the archived values.
+    const bool twist = model.effects().has(Effect::Twist);
+    // Why each pose that did not converge stopped (e.g. the load factor its
+    // archived positions are in equilibrium at), for the root `message`.
+    std::string reasons;
+    auto addPose = [&](int p, const std::vector<Vec3>& positions, const Eigen::VectorXd& edgeTwist,
+                       const PoseSolveSummary& solve, const std::string& details, const std::string& reason) {
+      a.poses.push_back(makeArchivePose(scene.poses[p].name, positions, twist ? &edgeTwist : nullptr,
+                                        scene.poses[p].target, solve));
+      if (!reason.empty())
+        reasons += (reasons.empty() ? "" : "; ") + ("pose '" + scene.poses[p].name + "': " + reason);
       if (quiet) return;
+      const ArchivePose& r = a.poses.back();
       char line[512];
       std::snprintf(line, sizeof line, "pose %d '%s': %s, %s, residual %.3e N, %s", p, r.name.c_str(),
                     r.status == "converged" ? (o.dynamic ? "done" : "converged")
@@ -168,12 +201,11 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       std::cerr << "\n";
       if (!reason.empty()) std::cerr << "  reason: " << reason << "\n";
     };
-    auto finishPose = [&](int p, PoseOutcome& r, const Eigen::VectorXd& u) {
+    // A pose solved by a solver that returns only its unknowns.
+    auto addPoseFromDofs = [&](int p, const Eigen::VectorXd& u, const PoseSolveSummary& solve,
+                               const std::string& details, const std::string& reason) {
       PoseSystem& sys = model.pose(p);
-      r.name = scene.poses[p].name;
-      r.positions = sys.positions(u, design);
-      r.twist = sys.materialTwists(u, design);
-      if (!scene.poses[p].target.empty()) r.rmsError = rmsError(r.positions, scene.poses[p].target);
+      addPose(p, sys.positions(u, design), sys.materialTwists(u, design), solve, details, reason);
     };
 
     if (o.dynamic) {
@@ -196,29 +228,24 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
                        dyn.loadRampTime);
         DynamicFrames frames;
         const DynamicsReport rep = simulateDynamics(sys, design, masses, dyn, o.duration, o.fps, frames, progress);
-        PoseOutcome r;
-        finishPose(p, r, frames.finalDofs);
-        r.status = rep.ok ? "converged" : "failed";
-        r.iterations = rep.newtonIterations;
-        r.residualNorm = rep.lastResidual;
-        r.timeSeconds = rep.wallSeconds;
+        PoseSolveSummary solve;
+        // A step below its minimum fails; a step budget or time limit stops early.
+        solve.status = rep.ok ? "converged" : archiveStatus(rep.outcome);
+        solve.iterations = rep.newtonIterations;
+        solve.residualNorm = rep.lastResidual;
+        solve.timeSeconds = rep.wallSeconds;
         char steps[96] = "";
         if (rep.steps > 0)
           std::snprintf(steps, sizeof steps, ", step %.3g to %.3g s", rep.minStepTaken, rep.maxStepTaken);
         char details[256];
         std::snprintf(details, sizeof details, "t = %.4f s in %d steps (%d rejected%s), %d Newton iterations", rep.time,
                       rep.steps, rep.rejectedSteps, steps, rep.newtonIterations);
-        reportPose(p, r, details, rep.ok ? "" : rep.message);
+        addPoseFromDofs(p, frames.finalDofs, solve, details, rep.ok ? "" : rep.message);
         ArchiveFrames af;
         af.name = name;
         af.time = Eigen::Map<const Eigen::VectorXd>(frames.time.data(), frames.time.size());
-        for (const std::vector<Vec3>& x : frames.positions) {
-          MatX3 m(x.size(), 3);
-          for (std::size_t v = 0; v < x.size(); ++v) m.row(v) = x[v].transpose();
-          af.positions.push_back(std::move(m));
-        }
+        for (const std::vector<Vec3>& x : frames.positions) af.positions.push_back(toRows(x));
         a.frames.push_back(std::move(af));
-        outcomes.push_back(std::move(r));
       }
     } else if (o.staticSolver == "relaxation") {
       a.extraRootAttributes["solver"] = "relaxation";
@@ -226,74 +253,46 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
         PoseSystem& sys = model.pose(p);
         Eigen::VectorXd u = sys.restDofs(design);
         const RelaxationReport rep = relaxEquilibrium(sys, design, u, o.relaxation);
-        PoseOutcome r;
-        finishPose(p, r, u);
-        r.status = rep.converged ? "converged" : "not_converged";
-        r.iterations = rep.iterations;
-        r.residualNorm = rep.residualNorm;
-        r.timeSeconds = rep.timeSeconds;
+        PoseSolveSummary solve;
+        solve.status = rep.converged ? "converged" : "not_converged";
+        solve.iterations = rep.iterations;
+        solve.residualNorm = rep.residualNorm;
+        solve.timeSeconds = rep.timeSeconds;
         char details[256];
         std::snprintf(details, sizeof details,
                       "%d relaxation iterations, %d kinetic-energy peaks, relative residual %.1e", rep.iterations,
                       rep.restarts, rep.relativeResidual);
-        reportPose(p, r, details, rep.converged ? "" : rep.message);
-        outcomes.push_back(std::move(r));
+        addPoseFromDofs(p, u, solve, details, rep.converged ? "" : rep.message);
       }
     } else {
       a.extraRootAttributes["solver"] = "newton";
       auto progress = [&](int p, const PoseResult& pr) {
-        PoseOutcome r;
-        finishPose(p, r, pr.dofs);
-        r.status = pr.report.converged ? "converged" : "not_converged";
-        r.iterations = pr.report.iterations;
-        r.residualNorm = pr.report.residualNorm;
-        r.timeSeconds = pr.report.timeSeconds;
-        if (pr.outOfPlaneStable) r.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
+        PoseSolveSummary solve;
+        // Non-finite loads or states, and problems without a solution, fail.
+        solve.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
+        solve.iterations = pr.report.iterations;
+        solve.residualNorm = pr.report.residualNorm;
+        solve.timeSeconds = pr.report.timeSeconds;
+        if (pr.outOfPlaneStable) solve.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
         char details[256];
         std::snprintf(details, sizeof details, "%d Newton iterations, %d load steps, relative residual %.1e",
                       pr.report.iterations, pr.report.loadSteps, pr.report.relativeResidual);
-        reportPose(p, r, details, pr.report.converged ? "" : pr.report.message);
-        if (!quiet && r.outOfPlaneStable == 0)
+        addPose(p, pr.positions, pr.twist, solve, details, pr.report.converged ? "" : pr.report.message);
+        if (!quiet && solve.outOfPlaneStable == 0)
           std::cerr << "  note: this in-plane equilibrium is unstable out of plane (a saddle of the 3D model); "
                        "solve with \"effects\" including \"twist\" to find the buckled state\n";
-        outcomes.push_back(std::move(r));
       };
       simulateAll(model, design, o.newton, progress);
     }
 
     bool allOk = true, anyFailed = false;
-    for (const PoseOutcome& r : outcomes) {
+    for (const ArchivePose& r : a.poses) {
       allOk = allOk && r.status == "converged";
       anyFailed = anyFailed || r.status == "failed";
     }
     a.status = allOk ? "converged" : anyFailed ? "failed" : "not_converged";
-    const int nv = model.network().numVertices();
-    a.restPositions.resize(nv, 3);
-    a.radii.resize(nv, 2);
-    for (int v = 0; v < nv; ++v) {
-      a.restPositions.row(v) = design.restPositions[v].transpose();
-      a.radii.row(v) = design.radii[v].transpose();
-    }
-    for (std::size_t p = 0; p < outcomes.size(); ++p) {
-      const PoseOutcome& r = outcomes[p];
-      ArchivePose ap;
-      ap.name = r.name;
-      ap.positions.resize(nv, 3);
-      for (int v = 0; v < nv; ++v) ap.positions.row(v) = r.positions[v].transpose();
-      if (model.effects().has(Effect::Twist)) ap.twist = r.twist;
-      const auto& target = scene.poses[p].target;
-      if (!target.empty()) {
-        ap.target.resize(nv, 3);
-        for (int v = 0; v < nv; ++v) ap.target.row(v) = target[v].transpose();
-      }
-      ap.residualNorm = r.residualNorm;
-      ap.rmsError = r.rmsError;
-      ap.status = r.status;
-      ap.iterations = r.iterations;
-      ap.timeSeconds = r.timeSeconds;
-      ap.outOfPlaneStable = r.outOfPlaneStable;
-      a.poses.push_back(std::move(ap));
-    }
+    if (!reasons.empty()) a.extraRootAttributes["message"] = reasons;
+    setRestAndRadii(a, design.restPositions, design.radii);
     writeArchive(a, o.output);
     if (!quiet) std::cerr << "wrote " << o.output << " (" << a.status << ")\n";
     return allOk ? kExitDone : kExitNotConverged;

@@ -36,7 +36,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    // One line, like every other bad input (issue 9): the flag, the value and
+    // what is allowed, without CLI11's "Run with --help" line.
+    std::cerr << "rodmesh: error: " << rodmesh::printableText(e.what()) << "\n";
     return kExitBadInput;
   }
   for (Command& c : commands) {
@@ -44,11 +46,11 @@ int main(int argc, char** argv) {
       try {
         return c.run();
       } catch (const rodmesh::InputError& e) {
-        std::cerr << "rodmesh: error: " << e.what() << "\n";
+        std::cerr << "rodmesh: error: " << rodmesh::printableText(e.what()) << "\n";
         return kExitBadInput;
       } catch (const std::exception& e) {
         // Unreadable or unwritable files and the like: nothing was written.
-        std::cerr << "rodmesh: error: " << e.what() << "\n";
+        std::cerr << "rodmesh: error: " << rodmesh::printableText(e.what()) << "\n";
         return kExitBadInput;
       }
     }

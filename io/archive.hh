@@ -22,18 +22,25 @@
 //             constraint_violation, gradient_norm, phase (string)}  (optimize only)
 //   /            attrs  (optimize only) method, iterations (int64), time_s, message
 //
-// writeArchive writes to a temporary file PATH.tmp.PID next to the target and
-// renames it into place only when complete. While it writes, SIGINT and
-// SIGTERM remove the temporary file and end the process with status 130 / 143
-// (io/interrupt.hh); temporary files of the same PATH left by processes that
-// no longer exist (after a SIGKILL, say) are removed before writing.
+// writeArchive writes into an unnamed file (O_TMPFILE) in the directory of
+// the target, links it as PATH.tmp.PID once complete and renames that into
+// place: a process killed at any moment, even by SIGKILL, leaves no partial
+// file, and PATH is either the previous archive or the new one. Where the
+// file system has no O_TMPFILE, PATH.tmp.PID itself is written. While it
+// writes, SIGINT and SIGTERM remove PATH.tmp.PID (if it exists) and end the
+// process with status 130 / 143 (io/interrupt.hh); temporary files of the same
+// PATH left by processes that no longer exist are removed before writing.
 // Test hook: the environment variable RODMESH_TEST_SLOW_WRITE=SECONDS makes
-// writeArchive sleep that long between completing the temporary file and
-// renaming it, so that tests can interrupt a write; never set it otherwise.
+// writeArchive sleep that long between completing the (unnamed) temporary
+// file and naming it, so that tests can interrupt a write; never set it
+// otherwise.
 #pragma once
+
+#include "model/scene.hh"
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <map>
 #include <optional>
 #include <string>
@@ -95,6 +102,9 @@ struct ArchiveOptimizeSummary {
   long long iterations = 0;  // optimizer iterations over the whole schedule (int64)
   double timeSeconds = 0.0;  // wall time of the optimization [s]
   std::string message;       // why the optimizer stopped, for humans
+  double evaluationSeconds = 0.0;  // of timeSeconds: in model evaluations (energies, derivatives, Newton)
+  double solverSeconds = 0.0;      // of timeSeconds: in the optimizer itself (SAND: Ipopt + MUMPS)
+  long long peakMemoryBytes = 0;   // peak resident memory of the process
 };
 
 struct Archive {
@@ -128,8 +138,54 @@ struct Archive {
 // initial positions of the wrong size); never leaves a partial file at `path`.
 void writeArchive(const Archive& a, const std::string& path);
 
-// Throws std::runtime_error with a clear message if the file is missing or is
-// not a rodmesh archive.
+// The bytes of the HDF5 file writeArchive would write (built in memory).
+std::string writeArchiveImage(const Archive& a);
+
+// ---- Reading (io/archive_reader.cc). Archives are untrusted input: nothing
+// is used before it is checked, and every problem is an InputError
+// (io/scene_reader.hh) with one message "FILE: /path/of/dataset: what, got
+// VALUE" ("/model attribute n_vertices" for attributes). HDF5's own error
+// printing is switched off.
+//
+// readArchive checks the structure: the format attribute; the presence of
+// what every archive has (root attributes format, version, command, status;
+// /scene; /model and its counts; /rest/positions; /design/radii; /poses with
+// at least one pose, each with positions and residual_norm); links that are
+// hard links to groups or datasets as expected; types (numbers, strings,
+// integers that are whole numbers in range); shapes, V x 3 and V x 2 with V
+// the rows of /rest/positions, T x V x 3 frames with T times, history and
+// control point series of one length, twist of n_edges entries; sizes, which
+// are checked against the size of the file before anything is allocated.
+// Numbers may still be non-finite (validateArchive checks values).
 Archive readArchive(const std::string& path);
+
+// readArchive with the HDF5 library in a child process: a file that makes the
+// library crash or loop (it has such bugs on corrupted input) is an
+// InputError naming the object being read, never a crash or a hang of this
+// process. The child sends the archive back rebuilt (writeArchiveImage),
+// which is then read here. Each HDF5 call gets 4 s plus 0.1 s per MB it may
+// produce. Falls back to readArchive if no process can be started.
+Archive readArchiveIsolated(const std::string& path);
+
+// The same from an HDF5 file image in memory (`size` bytes at `data`);
+// `name` stands for the file in messages.
+Archive readArchiveImage(const void* data, std::size_t size, const std::string& name);
+
+// Values and agreement with the scene, for an archive read from `path`:
+// status is converged, not_converged or failed; every number finite (a
+// residual_norm may be inf or nan only for a pose whose status is not
+// converged), radii positive, frame times non-decreasing; the scene's vertex,
+// rod and edge counts match /rest/positions and /model; frames belong to
+// poses; control points name existing rods and vertices, arc fractions in
+// [0, 1]. Throws InputError.
+void validateArchive(const Archive& a, const Scene& scene, const std::string& path);
+
+// What `inspect` and `export` read: readArchiveIsolated, the scene parsed
+// from /scene (messages say FILE:/scene), validateArchive.
+struct LoadedArchive {
+  Archive archive;
+  Scene scene;
+};
+LoadedArchive loadArchive(const std::string& path);
 
 }  // namespace rodmesh

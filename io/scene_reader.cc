@@ -1,8 +1,15 @@
 #include "io/scene_reader.hh"
 
+#include "io/json_text.hh"
+
 #include <nlohmann/json.hpp>
 
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <cstdint>
 #include <fstream>
 #include <limits>
@@ -29,13 +36,13 @@ struct Node {
   }
   bool has(const char* key) const { return j->is_object() && j->contains(key); }
   Node operator[](const char* key) const {
-    if (!j->is_object()) fail("expected an object");
+    if (!j->is_object()) fail("expected an object with key \"" + std::string(key) + "\", got " + typeName());
     auto it = j->find(key);
     if (it == j->end()) {
-      Node missing{j, path.empty() ? key : path + "." + key, file};
+      Node missing{j, withKey(path, key), file};
       missing.fail("missing required key");
     }
-    return Node{&*it, path.empty() ? key : path + "." + key, file};
+    return Node{&*it, withKey(path, key), file};
   }
   Node at(std::size_t i) const { return Node{&(*j)[i], path + "[" + std::to_string(i) + "]", file}; }
   std::size_t arraySize() const {
@@ -43,11 +50,8 @@ struct Node {
     return j->size();
   }
   std::string typeName() const { return std::string(j->type_name()) + " " + shortDump(); }
-  std::string shortDump() const {
-    std::string s = j->dump();
-    if (s.size() > 60) s = s.substr(0, 57) + "...";
-    return s;
-  }
+  // Bounded in length and cost whatever the size of the value.
+  std::string shortDump() const { return shortJson(*j); }
   double number() const {
     if (!j->is_number()) fail("expected a number, got " + typeName());
     double v = j->get<double>();
@@ -95,8 +99,7 @@ void warnUnknownKeys(const Node& n, std::initializer_list<const char*> known) {
   if (!n.j->is_object()) return;
   std::set<std::string> k(known.begin(), known.end());
   for (auto it = n.j->begin(); it != n.j->end(); ++it)
-    if (!k.count(it.key()))
-      g_warnings.push_back(*n.file + ": " + (n.path.empty() ? "" : n.path + ".") + it.key() + ": unknown key ignored");
+    if (!k.count(it.key())) g_warnings.push_back(*n.file + ": " + withKey(n.path, it.key()) + ": unknown key ignored");
 }
 
 std::vector<Vec3> readVec3List(const Node& n, std::size_t expected, const char* what) {
@@ -119,36 +122,39 @@ void readRadiusPair(const Node& n, Vec2& r) {
 
 const std::vector<std::string>& lastSceneWarnings() { return g_warnings; }
 
+std::string printableText(const std::string& text, std::size_t limit) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size() && i < limit; ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    } else {
+      out.push_back(static_cast<char>(c));
+    }
+  }
+  return text.size() > limit ? out + "..." : out;
+}
+
 Scene parseScene(const std::string& text, const std::string& path) {
   g_warnings.clear();
-  json doc;
-  try {
-    doc = json::parse(text);
-  } catch (const json::parse_error& e) {
-    // Translate the byte offset into line:column for humans.
-    std::size_t line = 1, col = 1;
-    for (std::size_t i = 0; i < e.byte && i < text.size(); ++i) {
-      if (text[i] == '\n') { ++line; col = 1; } else { ++col; }
-    }
-    throw InputError(path + ": not valid JSON (line " + std::to_string(line) + ", column " + std::to_string(col) +
-                     "): " + e.what());
-  } catch (const json::exception& e) {
-    // Other parser failures, e.g. out_of_range.406 "number overflow parsing '1e999'".
-    throw InputError(path + ": not valid JSON: " + e.what());
-  }
+  // Syntax errors, numbers beyond the double range and absurd nesting are
+  // reported with line, column and key path (io/json_text.hh).
+  const json doc = parseJsonText(text, path);
 
   Scene s;
   s.sourcePath = path;
   s.sourceText = text;
   Node root{&doc, "", &s.sourcePath};
-  if (!doc.is_object()) root.fail("expected a JSON object at the top level");
+  if (!doc.is_object()) root.fail("expected a JSON object at the top level, got " + root.typeName());
   warnUnknownKeys(root, {"format", "material", "vertices", "normals", "rods", "radius", "radii", "gravity", "effects",
                          "poses", "design", "name", "description", "units"});
 
   {
     Node f = root["format"];
     std::string v = f.string();
-    if (v != "rodmesh-scene/1") f.fail("unsupported format \"" + v + "\" (expected \"rodmesh-scene/1\")");
+    if (v != "rodmesh-scene/1") f.fail("unsupported format " + quotedText(v) + " (expected \"rodmesh-scene/1\")");
   }
 
   // Material.
@@ -178,7 +184,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
     s.normals = readVec3List(nn, nv, "normals");
     for (std::size_t i = 0; i < nv; ++i) {
       double len = s.normals[i].norm();
-      if (!(len > 1e-12)) nn.at(i).fail("normal must be non-zero");
+      if (!(len > 1e-12)) nn.at(i).fail("normal must be non-zero, got " + nn.at(i).shortDump());
       s.normals[i] /= len;
     }
   }
@@ -188,7 +194,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
   {
     Node rods = root["rods"];
     std::size_t nr = rods.arraySize();
-    if (nr == 0) rods.fail("need at least one rod");
+    if (nr == 0) rods.fail("need at least one rod, got []");
     std::vector<int> interiorUse(nv, -1);  // rod using the vertex as an interior node
     std::vector<int> endUse(nv, -1);       // some rod ending at the vertex
     for (std::size_t r = 0; r < nr; ++r) {
@@ -209,7 +215,8 @@ Scene parseScene(const std::string& text, const std::string& path) {
         double len = (s.vertices[rod.vertices[i + 1]] - s.vertices[rod.vertices[i]]).norm();
         if (!(len > 0.0))
           vs.at(i + 1).fail("zero-length edge between vertices " + std::to_string(rod.vertices[i]) + " and " +
-                            std::to_string(rod.vertices[i + 1]));
+                            std::to_string(rod.vertices[i + 1]) + ", both at " +
+                            root["vertices"].at(rod.vertices[i]).shortDump());
       }
       for (std::size_t i = 0; i < k; ++i) {
         int v = rod.vertices[i];
@@ -230,7 +237,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
       if (rn.has("normal")) {
         Node nn = rn["normal"];
         Vec3 n = nn.vec3();
-        if (!(n.norm() > 1e-12)) nn.fail("normal must be non-zero");
+        if (!(n.norm() > 1e-12)) nn.fail("normal must be non-zero, got " + nn.shortDump());
         rod.normal = n.normalized();
       }
       s.rods.push_back(std::move(rod));
@@ -272,12 +279,17 @@ Scene parseScene(const std::string& text, const std::string& path) {
       for (int k = 0; k < kEffectCount; ++k)
         if (name == effectName(static_cast<Effect>(k))) { list.push_back(static_cast<Effect>(k)); found = true; }
       if (!found)
-        ef.at(i).fail("unknown effect \"" + name + "\" (expected one of stretch, bend, twist, connections, gravity)");
+        ef.at(i).fail("unknown effect " + quotedText(name) +
+                      " (expected one of stretch, bend, twist, connections, gravity)");
     }
     bool hasStretch = false, hasGravity = false;
     for (Effect e : list) { hasStretch |= e == Effect::Stretch; hasGravity |= e == Effect::Gravity; }
-    if (!hasStretch) ef.fail("\"stretch\" cannot be left out: inextensible rods would need constraints this model does not have");
-    if (hasGravity && !s.gravity) ef.fail("\"gravity\" is listed but the scene has no \"gravity\" vector");
+    if (!hasStretch)
+      ef.fail(
+          "\"stretch\" cannot be left out: inextensible rods would need constraints this model does not have, got " +
+          ef.shortDump());
+    if (hasGravity && !s.gravity)
+      ef.fail("\"gravity\" is listed but the scene has no \"gravity\" vector, got " + ef.shortDump());
     s.effects = list;
   }
 
@@ -285,8 +297,8 @@ Scene parseScene(const std::string& text, const std::string& path) {
   {
     Node poses = root["poses"];
     std::size_t np = poses.arraySize();
-    if (np == 0) poses.fail("need at least one pose");
-    std::set<std::string> names;
+    if (np == 0) poses.fail("need at least one pose, got []");
+    std::map<std::string, std::size_t> names;  // pose name -> index
     for (std::size_t p = 0; p < np; ++p) {
       Node pn = poses.at(p);
       if (!pn.j->is_object()) pn.fail("expected an object, got " + pn.typeName());
@@ -294,8 +306,14 @@ Scene parseScene(const std::string& text, const std::string& path) {
       Pose pose;
       pose.name = pn.has("name") ? pn["name"].string() : "pose" + std::to_string(p);
       if (pose.name.empty() || pose.name.find('/') != std::string::npos || pose.name == "." || pose.name == "..")
-        pn["name"].fail("pose name must be non-empty and contain no '/', got \"" + pose.name + "\"");
-      if (!names.insert(pose.name).second) pn["name"].fail("duplicate pose name \"" + pose.name + "\"");
+        pn["name"].fail("pose name must be non-empty and contain no '/', got " + quotedText(pose.name));
+      if (!names.emplace(pose.name, p).second) {
+        const std::string other = "poses[" + std::to_string(names[pose.name]) + "]";
+        if (!pn.has("name"))
+          pn.fail("this pose has no \"name\", and its default name " + quotedText(pose.name) + " is already used by " +
+                  other);
+        pn["name"].fail("duplicate pose name " + quotedText(pose.name) + " (also " + other + ")");
+      }
       if (pn.has("weight")) {
         Node w = pn["weight"];
         pose.weight = w.number();
@@ -373,7 +391,8 @@ Scene parseScene(const std::string& text, const std::string& path) {
         std::string p = ps.at(i).string();
         if (p == "radii") s.design.radii = true;
         else if (p == "rest_shape") s.design.restShape = true;
-        else ps.at(i).fail("unknown design parameter \"" + p + "\" (expected radii or rest_shape)");
+        else
+          ps.at(i).fail("unknown design parameter " + quotedText(p) + " (expected radii or rest_shape)");
       }
     }
     if (d.has("radius_bounds")) {
@@ -407,8 +426,8 @@ void validateForOptimize(const Scene& s) {
   // a missing or an empty "parameters".
   json doc;
   try {
-    if (!s.sourceText.empty()) doc = json::parse(s.sourceText);
-  } catch (const json::exception&) {
+    if (!s.sourceText.empty()) doc = parseJsonText(s.sourceText, file);
+  } catch (const std::exception&) {
     doc = json();
   }
   const bool haveDoc = doc.is_object();
@@ -436,8 +455,8 @@ void validateForOptimize(const Scene& s) {
     const Pose& pose = s.poses[p];
     const std::string at = "poses[" + std::to_string(p) + "]";
     if (pose.target.empty())
-      fail(at + ".target", "missing; optimize needs a target for every pose, got pose " + std::to_string(p) + " \"" +
-                               pose.name + "\" without one");
+      fail(at + ".target", "missing; optimize needs a target for every pose, got pose " + std::to_string(p) + " " +
+                               quotedText(pose.name) + " without one");
     if (pose.target.size() != s.vertices.size())
       fail(at + ".target", "expected " + std::to_string(s.vertices.size()) +
                                " target positions (one per vertex), got " + std::to_string(pose.target.size()));
@@ -471,13 +490,29 @@ void validateForOptimize(const Scene& s) {
   }
 }
 
-Scene readSceneFile(const std::string& path) {
+Scene readSceneFile(const std::string& path) { return parseScene(readInputFile(path, "scene file"), path); }
+
+std::string readInputFile(const std::string& path, const std::string& what) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0)
+    throw InputError(path + ": cannot open " + what + " (" + std::strerror(errno) + ")");
+  if (S_ISDIR(st.st_mode)) throw InputError(path + ": is a directory, not a " + what);
+  // Regular files and pipes (a scene from `<(...)`); devices could be endless.
+  if (!S_ISREG(st.st_mode) && !S_ISFIFO(st.st_mode))
+    throw InputError(path + ": not a regular file (a device or socket), not read as a " + what);
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open scene file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": cannot read scene file");
-  return parseScene(ss.str(), path);
+  if (!in) throw InputError(path + ": cannot open " + what + " (" + std::strerror(errno) + ")");
+  // Read in blocks up to the limit: a device or a pipe has no size to check first.
+  std::string text;
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    text.append(buf, static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxInputFileBytes)
+      throw InputError(path + ": " + what + " is larger than " + std::to_string(kMaxInputFileBytes >> 20) +
+                       " MiB; not read");
+  }
+  if (in.bad()) throw InputError(path + ": cannot read " + what);
+  return text;
 }
 
 }  // namespace rodmesh

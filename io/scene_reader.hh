@@ -3,6 +3,7 @@
 
 #include "model/scene.hh"
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -15,12 +16,27 @@ class InputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Text from an input file as shown in a message or a report: control
+// characters (newlines, terminal escapes) as \xNN, so that a message stays one
+// line; at most `limit` bytes, then "...".
+std::string printableText(const std::string& text, std::size_t limit = std::string::npos);
+
 // Parses `text` as the scene stored in `path` (path is used in messages only).
 // Throws InputError on any violation of the contract.
 Scene parseScene(const std::string& text, const std::string& path);
 
 // Reads the file, then parseScene. Throws InputError if it cannot be read.
 Scene readSceneFile(const std::string& path);
+
+// Input files (scenes, surfaces) larger than this are refused: a scene of a
+// million vertices takes about 60 MB.
+constexpr std::size_t kMaxInputFileBytes = std::size_t(256) << 20;
+
+// The whole file `path` as bytes. Throws InputError naming the file and `what`
+// ("scene file") if it is missing, a directory, a device or a socket,
+// unreadable, or larger than kMaxInputFileBytes (read in blocks, so that a
+// pipe stops there too).
+std::string readInputFile(const std::string& path, const std::string& what);
 
 // The checks `rodmesh optimize` needs beyond parseScene (contract §4, "Bad
 // input for optimize"): a `design` block with at least one parameter; a target

@@ -56,48 +56,20 @@ struct Loaded {
   Archive a;
   Scene scene;
   int nv = 0;
-  MatX3 rest;                                    // V x 3
-  MatX2 radii;                                   // V x 2
-  bool restStored = false, radiiStored = false;  // present in the archive (XDMF can reference them)
+  MatX3 rest;   // V x 3, /rest/positions
+  MatX2 radii;  // V x 2, /design/radii
 };
 
-void checkRows(long rows, int nv, const std::string& path, const std::string& what) {
-  if (rows != nv)
-    throw InputError(path + ": " + what + " has " + std::to_string(rows) + " rows; the scene has " +
-                     std::to_string(nv) + " vertices");
-}
-
 Loaded load(const std::string& path) {
+  // Every dataset and attribute checked against the scene before use
+  // (io/archive.hh: loadArchive), so the sizes below hold.
+  LoadedArchive la = loadArchive(path);
   Loaded L;
-  L.a = readArchive(path);
-  L.scene = parseScene(L.a.sceneJson, path + ":/scene");
+  L.a = std::move(la.archive);
+  L.scene = std::move(la.scene);
   L.nv = static_cast<int>(L.scene.vertices.size());
-  L.restStored = L.a.restPositions.rows() > 0;
-  if (L.restStored) {
-    checkRows(L.a.restPositions.rows(), L.nv, path, "/rest/positions");
-    L.rest = L.a.restPositions;
-  } else {
-    L.rest.resize(L.nv, 3);
-    for (int i = 0; i < L.nv; ++i) L.rest.row(i) = L.scene.vertices[i].transpose();
-  }
-  L.radiiStored = L.a.radii.rows() > 0;
-  if (L.radiiStored) {
-    checkRows(L.a.radii.rows(), L.nv, path, "/design/radii");
-    L.radii = L.a.radii;
-  } else {
-    L.radii.resize(L.nv, 2);
-    for (int i = 0; i < L.nv; ++i) L.radii.row(i) = L.scene.radii[i].transpose();
-  }
-  for (const ArchivePose& p : L.a.poses) {
-    checkRows(p.positions.rows(), L.nv, path, "/poses/" + p.name + "/positions");
-    if (p.target.rows() > 0) checkRows(p.target.rows(), L.nv, path, "/poses/" + p.name + "/target");
-  }
-  for (const ArchiveFrames& f : L.a.frames) {
-    for (const MatX3& m : f.positions) checkRows(m.rows(), L.nv, path, "/frames/" + f.name + "/positions");
-    if (f.time.size() != static_cast<long>(f.positions.size()))
-      throw InputError(path + ": /frames/" + f.name + "/time has " + std::to_string(f.time.size()) + " entries for " +
-                       std::to_string(f.positions.size()) + " frames");
-  }
+  L.rest = L.a.restPositions;
+  L.radii = L.a.radii;
   return L;
 }
 
@@ -187,12 +159,6 @@ struct Xdmf {
     return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" +
            vtk::xmlEscape(h5 + ":" + dataset) + "</DataItem>";
   }
-  static std::string inlineFloats(const double* v, int rows, int cols) {
-    std::string s = "<DataItem Dimensions=\"" + std::to_string(rows) + " " + std::to_string(cols) +
-                    "\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">";
-    for (int i = 0; i < rows * cols; ++i) s += (i ? " " : "") + vtk::formatDouble(v[i]);
-    return s + "</DataItem>";
-  }
   // Column `col` of a V x 2 dataset.
   std::string column(const std::string& dataset, int col) const {
     const std::string v = std::to_string(L->nv);
@@ -207,10 +173,7 @@ struct Xdmf {
            "<DataItem Dimensions=\"3 3\" Format=\"XML\">" + std::to_string(t) + " 0 0 1 1 1 1 " + v + " 3</DataItem>" +
            hdf(dataset, std::to_string(frames) + " " + v + " 3") + "</DataItem>";
   }
-  std::string restItem() const {
-    return L->restStored ? hdf("/rest/positions", std::to_string(L->nv) + " 3")
-                         : inlineFloats(L->rest.data(), L->nv, 3);
-  }
+  std::string restItem() const { return hdf("/rest/positions", std::to_string(L->nv) + " 3"); }
   std::string difference(const std::string& a, const std::string& b) const {
     return "<DataItem ItemType=\"Function\" Function=\"$0 - $1\" Dimensions=\"" + std::to_string(L->nv) + " 3\" " +
            kFloat + ">" + a + b + "</DataItem>";
@@ -228,15 +191,11 @@ struct Xdmf {
     // radii: V x 2 [r_t, r_n] straight from the archive, readable by every
     // XDMF reader; radius_t, radius_n (hyperslabs) and the differences below
     // need ParaView's "XDMF Reader" (XDMF 3 readers skip them).
-    if (L->radiiStored)
-      out += "        <Attribute Name=\"radii\" AttributeType=\"Matrix\" Center=\"Node\">" +
-             hdf("/design/radii", v + " 2") + "</Attribute>\n";
+    out += "        <Attribute Name=\"radii\" AttributeType=\"Matrix\" Center=\"Node\">" +
+           hdf("/design/radii", v + " 2") + "</Attribute>\n";
     for (int col = 0; col < 2; ++col) {
       const std::string n = col == 0 ? "radius_t" : "radius_n";
-      const std::string item = L->radiiStored ? column("/design/radii", col) : [&] {
-        Eigen::VectorXd c = L->radii.col(col);
-        return inlineFloats(c.data(), L->nv, 1);
-      }();
+      const std::string item = column("/design/radii", col);
       out +=
           "        <Attribute Name=\"" + n + "\" AttributeType=\"Scalar\" Center=\"Node\">" + item + "</Attribute>\n";
     }

@@ -91,7 +91,8 @@ ExportReport exportSolid(const std::string& archivePath, const std::string& outP
   const auto t0 = std::chrono::steady_clock::now();
   checkMeshExtension(outPath);
   validateOptions(opt.solid);
-  const Archive a = readArchive(archivePath);
+  // Every dataset and attribute checked against the scene before use (io/archive.hh).
+  const Archive a = loadArchive(archivePath).archive;
   double density = 0;
   const std::vector<SweepEdge> edges = sweepEdgesFromArchive(a, archivePath, opt.pose, &density);
   ExportReport r;

@@ -33,14 +33,7 @@ std::string lowerExtension(const std::string& path) {
   return e;
 }
 
-std::string readAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open surface file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) fail(path, "cannot read surface file");
-  return ss.str();
-}
+std::string readAll(const std::string& path) { return readInputFile(path, "surface file"); }
 
 // ---------------------------------------------------------------- numbers
 // Every number in a surface file is parsed strictly: the whole token must be
@@ -701,10 +694,14 @@ PolygonSoup readPolygonFile(const std::string& path) {
   const std::string ext = lowerExtension(path);
   if (ext != "obj" && ext != "off" && ext != "ply")
     fail(path, "unsupported surface format '." + ext + "' (expected .obj, .off or .ply)");
-  const std::string data = readAll(path);
-  if (ext == "obj") return parseObj(data, path);
-  if (ext == "off") return parseOff(data, path);
-  return parsePly(data, path);
+  return parsePolygonText(readAll(path), ext, path);
+}
+
+PolygonSoup parsePolygonText(const std::string& data, const std::string& format, const std::string& path) {
+  if (format == "obj") return parseObj(data, path);
+  if (format == "off") return parseOff(data, path);
+  if (format == "ply") return parsePly(data, path);
+  fail(path, "unsupported surface format '." + format + "' (expected .obj, .off or .ply)");
 }
 
 TriSurface validateSurface(const PolygonSoup& soup, const std::string& path, std::vector<char>* flippedOut) {

@@ -53,6 +53,10 @@ struct PolygonSoup {
 };
 PolygonSoup readPolygonFile(const std::string& path);
 
+// The same for the contents `data` of a file in `format` ("obj", "off" or
+// "ply"); `path` names the file in messages.
+PolygonSoup parsePolygonText(const std::string& data, const std::string& format, const std::string& path);
+
 // Checks a polygon soup and turns it into a TriSurface. Rejects, with an
 // InputError naming the file and the face/edge/vertex: no faces, non-finite
 // coordinates, non-triangle faces, out-of-range indices, degenerate (repeated

@@ -36,8 +36,10 @@ bool findPlane(const Scene& scene, const RodNetwork& net, Eigen::Vector3d& norma
     Vec3 d = p - o;
     if (d.norm() > 1e-12 * extent) dirs.push_back(d / extent);
   };
+  // stableNorm: a load of 1e200 N (or 1e-200 N) must not overflow (underflow)
+  // to a zero direction and be projected out of the problem.
   auto addDir = [&](const Vec3& v) {
-    if (v.norm() > 0) dirs.push_back(v.normalized());
+    if (v.stableNorm() > 0) dirs.push_back(v.stableNormalized());
   };
   for (const Pose& pose : scene.poses)
     if (!pose.twistingMoments.empty()) {

@@ -11,6 +11,14 @@ packages=(
   python3-numpy python3-h5py hdf5-tools
   # scripts/render.py; tests/cli/vtk_check.py reads .vtp files with VTK's own reader
   python3-matplotlib python3-vtk9
+  # Optimised BLAS for MUMPS's dense frontal factorizations inside Ipopt
+  # (replaces the reference BLAS through Debian's alternatives; serial, so
+  # timings do not depend on BLAS threads). SAND's KKT factorizations spent
+  # 63% of their time in the reference dgemm.
+  libopenblas0-serial
+  # scripts/fuzz.sh: clang 14; libFuzzer and the sanitizer runtimes are in
+  # libclang-rt-14-dev, only recommended by clang
+  clang libclang-rt-14-dev
 )
 
 missing=()

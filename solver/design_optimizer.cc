@@ -1,35 +1,24 @@
 #include "solver/design_optimizer.hh"
 
+#include "solver/parallel.hh"
+
 #include <Eigen/SparseCholesky>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <sstream>
 #include <thread>
+
+#include <sys/resource.h>
 
 namespace rodmesh {
 namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// Runs fn(pose) for every pose on `threads` threads (static partition: the
-// result of each pose never depends on the thread count).
-template <class Fn>
-void forEachPose(int poses, int threads, Fn&& fn) {
-  threads = std::max(1, std::min(threads, poses));
-  if (threads == 1) {
-    for (int p = 0; p < poses; ++p) fn(p);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t)
-    pool.emplace_back([&, t] {
-      for (int p = t; p < poses; p += threads) fn(p);
-    });
-  for (std::thread& th : pool) th.join();
-}
 }  // namespace
 
 TargetObjective::TargetObjective(const Scene& scene, const EffectSet& effects) : scene_(scene), fx_(effects) {
@@ -75,7 +64,11 @@ std::string DesignOptimizerOptions::isValid() const {
   if (!(timeLimit >= 0) || !std::isfinite(timeLimit)) return "time limit must be a non-negative number of seconds";
   if (!(tolerance > 0 && tolerance < 1)) return "tolerance must lie in (0, 1)";
   if (threads < 1) return "threads must be at least 1";
-  if (maxAlternations < 0 || maxPhaseIterations < 1) return "bad schedule limits";
+  if (maxAlternations < 0 || maxLevelIterations < 1 || maxPhaseIterations < 1 || phaseWindow < 1)
+    return "bad schedule limits (rounds, iterations per phase or window)";
+  if (!(phaseRelativeDecrease >= 0 && phaseRelativeDecrease < 1) ||
+      !(roundRelativeDecrease >= 0 && roundRelativeDecrease < 1))
+    return "relative decreases of a phase and of a round must lie in [0, 1)";
   return newton.isValid();
 }
 
@@ -118,6 +111,13 @@ bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& state
 }
 
 bool ReducedObjective::evaluate(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g) {
+  const auto t0 = Clock::now();
+  const bool ok = evaluateImpl(z, f, g);
+  seconds_ += since(t0);
+  return ok;
+}
+
+bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g) {
   if (!z.allFinite()) return false;
   const Design d = space_.toDesign(space_.unpack(phase_, z, base_));
   std::vector<PoseState> states;
@@ -190,16 +190,12 @@ void ReducedObjective::accept(const Eigen::VectorXd& z) {
 
 // ------------------------------------------------------------------------
 
-namespace {
-
 const char* phaseName(const DesignPhase& ph) {
   if (ph.radii && ph.restShape) return "joint";
   return ph.radii ? "radii" : "rest_shape";
 }
 
-// Scale of each free variable (radii: the bound range; displacements: a tenth
-// of the mean rod length), so that BFGS steps are comparable across kinds.
-Eigen::VectorXd variableScale(const DesignSpace& space, const DesignPhase& ph, const Scene& scene) {
+Eigen::VectorXd designVariableScale(const DesignSpace& space, const DesignPhase& ph, const Scene& scene) {
   Eigen::VectorXd lo, hi;
   space.bounds(ph, lo, hi);
   double rodLength = 0.0;
@@ -213,7 +209,35 @@ Eigen::VectorXd variableScale(const DesignSpace& space, const DesignPhase& ph, c
   return s;
 }
 
-}  // namespace
+std::vector<DesignStep> designSchedule(const Scene& scene, const DesignSpace& space,
+                                       const DesignOptimizerOptions& opt) {
+  const int finest = space.numLevels() - 1;
+  const bool radii = scene.design.radii, rest = scene.design.restShape;
+  std::vector<DesignStep> steps;
+  if (opt.schedule == Schedule::Joint) {
+    steps.push_back({{radii, rest, finest}, 0});
+  } else {
+    if (radii)
+      for (int l = 0; l <= finest; ++l) steps.push_back({{true, false, l}, 0});
+    if (rest) {
+      if (radii) {
+        for (int r = 1; r <= opt.maxAlternations; ++r) {
+          steps.push_back({{false, true, finest}, r});
+          steps.push_back({{true, false, finest}, r});
+        }
+      } else {
+        steps.push_back({{false, true, finest}, 0});
+      }
+    }
+  }
+  return steps;
+}
+
+long peakResidentMemory() {
+  struct rusage ru {};
+  if (getrusage(RUSAGE_SELF, &ru) != 0) return 0;
+  return static_cast<long>(ru.ru_maxrss) * 1024L;  // Linux: kilobytes
+}
 
 DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
                                       const DesignOptimizerOptions& opt, const DesignProgress& progress) {
@@ -254,32 +278,16 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   res.history.push_back({0, 0, "initial", res.objective, res.rms, 0.0, 0.0, since(t0), 1});
   if (progress) progress(res.history.back());
 
-  // The schedule.
-  std::vector<DesignPhase> phases;
-  if (opt.schedule == Schedule::Joint) {
-    phases.push_back({radii, rest, finest});
-  } else {
-    if (radii)
-      for (int l = 0; l <= finest; ++l) phases.push_back({true, false, l});
-    if (rest) {
-      if (radii) {
-        for (int r = 0; r < opt.maxAlternations; ++r) {
-          phases.push_back({false, true, finest});
-          phases.push_back({true, false, finest});
-        }
-      } else {
-        phases.push_back({false, true, finest});
-      }
-    }
-  }
+  const std::vector<DesignStep> steps = designSchedule(scene, space, opt);
 
   Outcome stop = Outcome::Converged;
   std::string message = "schedule completed";
   int iterations = 0;
-  double roundStart = res.objective;
-  for (std::size_t ph = 0; ph < phases.size(); ++ph) {
-    const DesignPhase& phase = phases[ph];
-    const bool alternating = opt.schedule == Schedule::Paper && radii && rest && ph >= static_cast<std::size_t>(finest + 1);
+  double roundStart = res.objective;  // objective at the start of the current round
+  for (std::size_t ph = 0; ph < steps.size(); ++ph) {
+    const DesignPhase& phase = steps[ph].phase;
+    const int round = steps[ph].round;
+    const bool lastPhase = ph + 1 == steps.size();
     const int remaining = opt.maxIterations - iterations;
     if (remaining <= 0) {
       stop = Outcome::MaxIterations;
@@ -292,17 +300,24 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       message = "time limit reached";
       break;
     }
+    if (round > 0 && phase.restShape) roundStart = res.objective;
     ReducedObjective ro(model, space, objective, phase, res.controls, opt.newton, opt.threads, states);
-    const Eigen::VectorXd s = variableScale(space, phase, scene);
+    const Eigen::VectorXd s = designVariableScale(space, phase, scene);
     Eigen::VectorXd lo, hi;
     space.bounds(phase, lo, hi);
     const Eigen::VectorXd y0 = space.pack(phase, res.controls).cwiseQuotient(s);
     BfgsOptions bo;
-    const bool lastPhase = ph + 1 == phases.size() || opt.schedule == Schedule::Joint;
-    bo.maxIterations = lastPhase ? remaining : std::min(remaining, opt.maxPhaseIterations);
+    // Every phase stops on the gradient test, on the relative decrease over
+    // a window, and on its cap (radius levels: maxLevelIterations; phases of
+    // the alternation, the last one included: maxPhaseIterations); the last
+    // phase of a schedule without alternation (joint, radii only, rest shape
+    // only) is the whole rest of the run and only has the run's limits.
+    const int cap = round > 0 ? opt.maxPhaseIterations : lastPhase ? remaining : opt.maxLevelIterations;
+    bo.maxIterations = std::min(remaining, cap);
     bo.timeLimit = opt.timeLimit > 0 ? std::max(1e-3, opt.timeLimit - elapsed) : 0.0;
     bo.gradientTolerance = opt.tolerance;
-    bo.relativeDecrease = opt.tolerance;
+    bo.relativeDecrease = opt.phaseRelativeDecrease;
+    bo.stallWindow = opt.phaseWindow;
     bo.initialMaxStep = 0.1;
     bo.minStep = 1e-9;
     bo.maxStepLimit = 10.0;
@@ -335,6 +350,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     res.evaluations += br.evaluations;
     res.failedEvaluations += br.failedEvaluations;
     res.equilibriumRestarts += ro.restarts();
+    res.evaluationSeconds += ro.evaluationSeconds();
     if (std::isfinite(br.f) && br.f <= res.objective) {
       res.controls = space.unpack(phase, br.x.cwiseProduct(s), res.controls);
       res.objective = br.f;
@@ -350,23 +366,34 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       message = br.status.message;
       break;
     }
-    if (lastPhase) {
-      stop = o == Outcome::Stalled ? Outcome::Converged : o;
-      message = br.status.message;
-      if (o == Outcome::MaxIterations) message = "iteration limit reached";
+    if (o == Outcome::MaxIterations && iterations >= opt.maxIterations) {
+      stop = Outcome::MaxIterations;
+      message = "iteration limit reached";
+      break;
     }
-    // The alternation ends when a round (rest shape then radii) no longer
-    // lowers the objective by the tolerance.
-    if (alternating && !phase.restShape) {
+    // A round (rest shape, then radii) ends the run when it lowered the
+    // objective by less than roundRelativeDecrease.
+    if (round > 0 && phase.radii) {
       const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
-      roundStart = res.objective;
-      if (gain <= opt.tolerance * 10) {
+      if (gain < opt.roundRelativeDecrease) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "rest-shape/radii round %d lowered the objective by %.2g%% (< %.2g%%)", round,
+                      100 * gain, 100 * opt.roundRelativeDecrease);
         stop = Outcome::Converged;
-        message = "a rest-shape/radii round lowered the objective by less than the tolerance";
+        message = buf;
         break;
       }
+      if (lastPhase) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "alternation limit reached: round %d still lowered the objective by %.2g%%",
+                      round, 100 * gain);
+        stop = Outcome::MaxIterations;
+        message = buf;
+      }
+    } else if (lastPhase) {
+      stop = o == Outcome::Stalled ? Outcome::Converged : o;
+      message = br.status.message;
     }
-    if (!alternating && !lastPhase && ph == static_cast<std::size_t>(finest)) roundStart = res.objective;
   }
 
   res.design = space.toDesign(res.controls);
@@ -385,6 +412,8 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   res.iterations = iterations;
   res.status = {stop, message};
   res.timeSeconds = since(t0);
+  res.solverSeconds = std::max(0.0, res.timeSeconds - res.evaluationSeconds);
+  res.peakMemoryBytes = peakResidentMemory();
   return res;
 }
 

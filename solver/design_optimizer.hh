@@ -14,8 +14,12 @@
 // with exact design derivatives (PoseSystem::designForceProduct) and one
 // solve per pose with the equilibrium's Hessian. BFGS with a projected line
 // search (solver/bfgs.hh) drives z through the schedule: radii at levels
-// 0, 1, 2, then rest shape and radii alternating at the finest level
-// (--schedule paper), or everything at once (--schedule joint).
+// 0, 1, 2, then rounds of rest shape and radii at the finest level
+// (--schedule paper), or everything at once (--schedule joint). A phase ends
+// on the projected-gradient test, on a relative decrease of the objective
+// below phaseRelativeDecrease over phaseWindow iterations, or at its cap;
+// the rounds end when one lowers the objective by less than
+// roundRelativeDecrease (docs/optimization.md, "Schedule").
 #pragma once
 
 #include "model/design_space.hh"
@@ -54,11 +58,19 @@ enum class Schedule { Paper, Joint };
 struct DesignOptimizerOptions {
   int maxIterations = 200;     // optimizer iterations over the whole schedule
   double timeLimit = 0.0;      // s, 0 = none
-  double tolerance = 1e-6;     // projected gradient relative to its start of phase, and relative decrease per phase
+  double tolerance = 1e-6;     // a phase converges when its projected gradient falls below this fraction of
+                               // its value at the start of the phase
   Schedule schedule = Schedule::Paper;
   int threads = 1;             // poses solved in parallel; results do not depend on it
-  int maxAlternations = 6;     // rest-shape / radii rounds after the radius levels (paper schedule)
-  int maxPhaseIterations = 40; // BFGS iterations per phase of the alternation
+  // When phases and the run stop (docs/optimization.md, "Schedule"):
+  int maxLevelIterations = 40;          // BFGS iterations per radius level (paper schedule) ...
+  int maxPhaseIterations = 100;         // ... and per rest-shape or radii phase of the alternation; the last
+                                        // phase of a schedule without alternation has no cap of its own
+  double phaseRelativeDecrease = 1e-3;  // a phase ends when the objective fell by less than this fraction ...
+  int phaseWindow = 10;                 // ... over this many iterations
+  double roundRelativeDecrease = 1e-2;  // the run ends when a rest-shape + radii round lowers the objective by
+                                        // less than this fraction
+  int maxAlternations = 20;             // rest-shape / radii rounds at most (paper schedule)
   NewtonOptions newton;        // equilibrium solves
   std::function<bool()> stopRequested;  // SIGINT
   std::string isValid() const;
@@ -71,6 +83,9 @@ struct DesignIterate {
   std::string phase;  // "radii", "rest_shape" or "joint"
   double objective = 0.0, rms = 0.0, gradientNorm = 0.0, step = 0.0, elapsed = 0.0;
   int evaluations = 0;
+  // SAND: the largest equilibrium residual at the iterate (N) and Ipopt's
+  // dual infeasibility; 0 for the reduced method (its iterates are equilibria).
+  double constraintViolation = 0.0, dualInfeasibility = 0.0;
 };
 
 struct DesignOptimizerResult {
@@ -83,8 +98,28 @@ struct DesignOptimizerResult {
   double objective = 0.0, rms = 0.0;
   int iterations = 0, evaluations = 0, failedEvaluations = 0, equilibriumRestarts = 0;
   double timeSeconds = 0.0;
+  double evaluationSeconds = 0.0;       // in model evaluations (objective, equilibria, derivatives)
+  double solverSeconds = 0.0;           // in the optimizer itself (SAND: Ipopt and MUMPS)
+  long peakMemoryBytes = 0;             // peak resident memory of the process at the end
   std::vector<DesignIterate> history;   // starts with iteration 0 (initial design)
 };
+
+// The phases of a schedule (paper: radii level by level, then rounds of rest
+// shape and radii at the finest level; joint: everything at the finest).
+// `round` numbers the rounds of the alternation (1, 2, ...; 0 outside it).
+struct DesignStep {
+  DesignPhase phase;
+  int round = 0;
+};
+std::vector<DesignStep> designSchedule(const Scene& scene, const DesignSpace& space,
+                                       const DesignOptimizerOptions& options);
+const char* phaseName(const DesignPhase& phase);
+// Scale of each free variable of a phase (radii: the bound range;
+// displacements: a tenth of the mean rod length), so that optimizer steps
+// are comparable across kinds.
+Eigen::VectorXd designVariableScale(const DesignSpace& space, const DesignPhase& phase, const Scene& scene);
+// Peak resident memory of this process (bytes).
+long peakResidentMemory();
 
 using DesignProgress = std::function<void(const DesignIterate&)>;
 
@@ -107,8 +142,10 @@ class ReducedObjective {
   double lastSumSquared() const { return lastSumSq_; }
   int failedSolves() const { return failedSolves_; }
   int restarts() const { return restarts_; }
+  double evaluationSeconds() const { return seconds_; }  // spent in evaluate()
 
  private:
+  bool evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g);
   bool solvePoses(const Design& d, std::vector<PoseState>& states);
   SceneModel& model_;
   const DesignSpace& space_;
@@ -122,7 +159,7 @@ class ReducedObjective {
   // Cache of the last successful evaluation.
   Eigen::VectorXd lastZ_;
   std::vector<PoseState> lastStates_;
-  double lastF_ = 0.0, lastSumSq_ = 0.0;
+  double lastF_ = 0.0, lastSumSq_ = 0.0, seconds_ = 0.0;
   int failedSolves_ = 0, restarts_ = 0;
 };
 

@@ -23,10 +23,17 @@
 // direction, or when the step changes too much: a vertex moves more than
 // maxDisplacement mean edge lengths away from the prediction u_n + h v_n (the
 // local error of backward Euler is half that deviation) or a twist angle
-// changes by more than maxTwistChange. After an easy step (at most
+// changes by more than maxTwistChange (unless the change did not shrink when
+// the step was cut for it: the quasi-static response of the massless twists
+// to a sudden load, see advanceTo). After an easy step (at most
 // easyIterations Newton iterations and well inside those limits) the step
 // grows by growFactor, up to maxStep. Below minStep the integrator stops,
 // keeps the last accepted state (never NaN) and says why.
+//
+// Every loop is bounded: Newton by maxNewtonIterations per step, the line
+// search by maxBacktracks, the steps of a run by maxSteps (accepted and
+// rejected together) and optionally by timeLimit seconds of wall-clock time;
+// the integrator stops with a message when a bound is reached.
 #pragma once
 
 #include <Eigen/Core>
@@ -36,7 +43,9 @@
 #include <string>
 #include <vector>
 
+#include "model/outcome.hh"
 #include "model/pose_system.hh"
+#include "solver/modified_ldlt.hh"
 
 namespace rodmesh {
 
@@ -54,12 +63,23 @@ struct DynamicsOptions {
   double loadRampTime = 0.0;      // s; loads and held displacements grow linearly to 1 over this time (0: at once)
   double armijo = 1e-4;           // sufficient-decrease constant of the line search
   int maxBacktracks = 30;         // step halvings of the line search
+  long long maxSteps = 100000;    // time steps attempted (accepted + rejected) over a whole run
+  double timeLimit = 0.0;         // s of wall-clock time over a whole run; 0: none
   std::string isValid() const;    // empty if valid, else what is wrong
 };
 
+// The checks of a whole run (empty if valid, else what is wrong, with the
+// allowed range): the options, a finite positive duration, a positive frame
+// rate, at most maxFrames frames, and a largest step that can cover the
+// duration within maxSteps steps (maxStep >= duration / maxSteps).
+std::string checkDynamicRun(const DynamicsOptions& options, double duration, double fps, double maxFrames);
+
 struct DynamicsReport {
-  bool ok = true;  // false: a step fell below minStep (state is the last accepted one)
-  int steps = 0;   // accepted time steps
+  bool ok = true;  // false: a step fell below minStep, or a bound was reached (state is the last accepted one)
+  // Why it stopped early: NumericalFailure (a step fell below minStep),
+  // MaxIterations (maxSteps spent), TimeLimit; Converged when it reached the end.
+  Outcome outcome = Outcome::Converged;
+  int steps = 0;  // accepted time steps
   int rejectedSteps = 0;
   int newtonIterations = 0;  // over all steps, rejected ones included
   int factorizations = 0;
@@ -119,14 +139,14 @@ class BackwardEuler {
   DynamicsReport rep_;
   Eigen::VectorXd u_, v_;
   double t_ = 0.0, h_ = 0.0;
-  double floorForce_ = 0.0;
+  double twistRejected_ =
+      -1.0;  // twist change of the last step rejected for it (-1: none since the last accepted step)
 
   // Newton matrix: Hessian of E plus M / h^2 on the diagonal (lower triangle);
   // its pattern is the Hessian's plus the diagonal, built once.
   Eigen::SparseMatrix<double> A_;
   std::vector<int> hessToA_, diagA_;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_;
-  bool analysed_ = false;
+  ModifiedLdlt factor_;
 };
 
 // Frames of a dynamic run: positions of every vertex at each frame time.

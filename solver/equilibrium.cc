@@ -1,6 +1,7 @@
 #include "solver/equilibrium.hh"
 
 #include "model/stiffness.hh"
+#include "solver/modified_ldlt.hh"
 
 #include <Eigen/SparseCholesky>
 
@@ -47,23 +48,6 @@ std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const
                 "static equilibrium; hold at least one vertex",
                 p.name.c_str(), total.norm());
   return buf;
-}
-
-bool outOfPlaneStable(const Scene& scene, const RodNetwork& network, const EffectSet& planarEffects, int pose,
-                      const Design& design, const std::vector<Vec3>& positions) {
-  EffectSet full = planarEffects;
-  full.planar = false;
-  full.on[static_cast<int>(Effect::Twist)] = true;
-  PoseSystem sys(scene, network, full, pose);
-  const Eigen::VectorXd u = sys.dofsFrom(positions, Eigen::VectorXd::Zero(network.numEdges()));
-  double e;
-  Eigen::VectorXd g;
-  sys.evaluate(u, design, e, g, true);
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(sys.hessian());
-  if (ldlt.info() != Eigen::Success) return true;  // cannot tell; do not cry wolf
-  const Eigen::VectorXd D = ldlt.vectorD();
-  const double tol = 1e-8 * D.cwiseAbs().maxCoeff();
-  return (D.array() >= -tol).all();
 }
 
 SimulationResult simulateAll(SceneModel& model, const Design& design, const NewtonOptions& options,

@@ -5,6 +5,7 @@
 #include "model/network.hh"
 #include "model/pose_system.hh"
 #include "solver/newton.hh"
+#include "solver/stability.hh"  // outOfPlaneStable
 
 #include <functional>
 #include <memory>
@@ -59,12 +60,6 @@ SimulationResult simulateAll(SceneModel& model, const Design& design, const Newt
 // held vertex and a non-zero net force).
 std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const EffectSet& effects, int pose,
                             const Design& design);
-
-// For a pose solved with in-plane unknowns: is the equilibrium stable in the
-// full 3D model (out-of-plane motion and twist)? False means it is a saddle,
-// e.g. beyond lateral-torsional buckling; solve with twist to find the 3D state.
-bool outOfPlaneStable(const Scene& scene, const RodNetwork& network, const EffectSet& planarEffects, int pose,
-                      const Design& design, const std::vector<Vec3>& positions);
 
 // RMS distance to the target over the given positions (m).
 double rmsError(const std::vector<Vec3>& x, const std::vector<Vec3>& target);

@@ -1,13 +1,16 @@
 #include "solver/newton.hh"
 
 #include <Eigen/SparseCholesky>
-
+#include <algorithm>
 #include <chrono>
-#include <limits>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <cmath>
+#include <limits>
 #include <sstream>
+
+#include "solver/modified_ldlt.hh"
 
 namespace rodmesh {
 namespace {
@@ -15,35 +18,65 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-bool finite(const Eigen::VectorXd& v) { return v.allFinite(); }
+using Ldlt = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>>;
 
-}  // namespace
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+constexpr double kPi = 3.14159265358979323846;
+// Rule 3: a Newton correction within this many units of round-off of every
+// unknown cannot improve the state.
+constexpr double kCorrectionUlps = 4.0;
+// The first Newton step from a state may not displace a vertex by more than
+// this many times the structure's size: such loads are beyond what double
+// precision can represent in equilibrium (energies ~ stiffness x size^2 x
+// this^2 would overflow).
+constexpr double kAbsurdDisplacement = 1e100;
 
-std::string NewtonOptions::isValid() const {
-  if (maxIterations < 1) return "maxIterations must be at least 1";
-  if (!(tolerance > 0 && tolerance < 1)) return "tolerance must lie in (0, 1)";
-  if (!(armijo > 0 && armijo < 0.5)) return "armijo must lie in (0, 0.5)";
-  if (maxBacktracks < 1) return "maxBacktracks must be at least 1";
-  if (!(minShift > 0 && maxShift > minShift)) return "need 0 < minShift < maxShift";
-  if (maxLoadHalvings < 0) return "maxLoadHalvings must be non-negative";
-  return "";
+// Deterministic pseudo-random signs (splitmix64 of the index).
+double pseudoSign(std::uint64_t i) {
+  std::uint64_t z = i + 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  z ^= z >> 31;
+  return (z >> 63) ? 1.0 : -1.0;
 }
 
-double loadScale(PoseSystem& system, const Design& design) {
-  Eigen::VectorXd u = system.restDofs(design);
-  Eigen::VectorXd g;
-  double e;
-  system.evaluate(u, design, e, g, false);
-  return system.forceResidual(g).norm();
+// Largest vertex displacement of a step (Euclidean per vertex).
+double maxVertexStep(const PoseSystem& sys, const Eigen::VectorXd& d) {
+  const int D = sys.dofsPerVertex();
+  double m = 0.0;
+  for (int k = 0; k + D <= sys.numVertexDofs(); k += D) m = std::max(m, d.segment(k, D).stableNorm());
+  return m;
 }
 
-NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale,
-                         double tolerance, const NewtonOptions& opt) {
+// Diagonal of the structure's bounding box at u (at least one mean edge).
+double structureSize(const PoseSystem& sys, const Design& design, const Eigen::VectorXd& u) {
+  const std::vector<Vec3> x = sys.positions(u, design);
+  if (x.empty()) return sys.momentArm();
+  Vec3 lo = x.front(), hi = x.front();
+  for (const Vec3& p : x) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const double s = (hi - lo).norm();
+  return std::isfinite(s) ? std::max(s, sys.momentArm()) : sys.momentArm();
+}
+
+std::string format(const char* fmt, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, a);
+  return buf;
+}
+
+NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale,
+                              double tolerance, const NewtonOptions& opt, Clock::time_point deadline,
+                              bool hasDeadline) {
   const auto t0 = Clock::now();
   NewtonReport rep;
   rep.loadScale = scale;
   rep.loadSteps = 1;
+  rep.loadFactor = system.loadFactor();
   const int n = system.numDofs();
+  const int nv = system.numVertexDofs();
   Eigen::VectorXd g(n), gTrial(n), d(n), uTrial(n);
   double E = 0.0;
   if (n == 0) {
@@ -55,110 +88,147 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
     return rep;
   }
 
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
-  bool analysed = false;
-  Eigen::SparseMatrix<double> H;
-  std::vector<int> diagSlot;
+  ModifiedLdlt factor;
   int escapes = 0;
-  const double eps = std::numeric_limits<double>::epsilon();
-  const double floorForce = system.roundoffForce(design);
   const bool debug = std::getenv("RODMESH_DEBUG_NEWTON") != nullptr;
+  const double size = structureSize(system, design, u);
+  // Trust radius on vertex displacements (m) for every step; grows after a
+  // full step that it limited, shrinks to what the line search accepted.
+  double radius = size;
 
   auto ta = Clock::now();
   system.evaluate(u, design, E, g, true);
   rep.assemblySeconds += since(ta);
-  if (!std::isfinite(E) || !finite(g)) {
+  if (!std::isfinite(E) || !g.allFinite()) {
     rep.outcome = Outcome::NumericalFailure;
     rep.message = "energy or forces are not finite at the initial guess";
     rep.timeSeconds = since(t0);
     return rep;
   }
 
-  // Solves (L |D|' L^T) x = b with the current factor, where |D|' replaces
-  // every pivot by max(|D_i|, delta max|D|): the modified-Newton system of an
-  // indefinite Hessian (positive definite, same scaling as H).
-  auto solveModified = [&](const Eigen::VectorXd& b, const Eigen::VectorXd& Dmod) {
-    Eigen::VectorXd y = ldlt.permutationP() * b;
-    ldlt.matrixL().solveInPlace(y);
-    y.array() /= Dmod.array();
-    ldlt.matrixU().solveInPlace(y);
-    return Eigen::VectorXd(ldlt.permutationPinv() * y);
-  };
-
+  double energyAtTenth = E;
   for (int it = 0;; ++it) {
+    if (it == opt.maxIterations - std::max(1, opt.maxIterations / 10)) energyAtTenth = E;
     const double res = system.forceResidual(g).norm();
     rep.residualNorm = res;
     rep.relativeResidual = scale > 0 ? res / scale : res;
     rep.residualHistory.push_back(rep.relativeResidual);
     rep.energy = E;
 
-    // Factorize the Hessian at the current point (also needed to judge the
-    // stability of a converged state).
+    // Factorize the Hessian at the current point (solver/modified_ldlt.hh).
     const Eigen::SparseMatrix<double>& H0 = system.hessian();
-    if (!analysed) {
-      H = H0;
-      diagSlot.assign(n, -1);
-      for (int c = 0; c < n; ++c)
-        for (int k = H.outerIndexPtr()[c]; k < H.outerIndexPtr()[c + 1]; ++k)
-          if (H.innerIndexPtr()[k] == c) diagSlot[c] = k;
-      ldlt.analyzePattern(H);
-      analysed = true;
-    }
     ta = Clock::now();
-    std::copy(H0.valuePtr(), H0.valuePtr() + H0.nonZeros(), H.valuePtr());
-    ldlt.factorize(H);
-    rep.factorizations++;
-    const Eigen::VectorXd D = ldlt.vectorD();
-    const bool factorOk = ldlt.info() == Eigen::Success && D.allFinite();
-    const double Dmax = factorOk ? D.cwiseAbs().maxCoeff() : 0.0;
-    const double delta = 1e-10 * Dmax;
-    // Negative pivots mean negative curvature; pivots within delta of zero
-    // are (near) zero-stiffness modes, harmless at convergence but floored in
-    // the step.
-    int negative = 0, singular = 0, worst = -1;
-    if (factorOk)
-      for (int i = 0; i < n; ++i) {
-        if (D[i] < -delta) {
-          ++negative;
-          if (worst < 0 || D[i] < D[worst]) worst = i;
-        } else if (D[i] <= delta) {
-          ++singular;
-        }
-      }
+    const int factorizationsBefore = factor.factorizations();
+    const bool factorOk = factor.factorize(H0);
+    rep.factorizations += factor.factorizations() - factorizationsBefore;
+    const int negative = factorOk ? factor.negative() : 0;
+    const int singular = factorOk ? factor.singular() : 0;
     rep.factorSeconds += since(ta);
     rep.negativePivots = negative;
+    rep.singularPivots = singular;
+    const bool modified = negative > 0 || singular > 0;
 
-    const bool small = res <= tolerance * scale || res <= floorForce;
+    // Direction: Newton, or modified Newton (|D|, floored) where the Hessian
+    // is indefinite or singular.
+    bool haveDir = false;
+    double tau = 0.0;
+    if (factorOk) {
+      d = factor.solve(-g);
+      haveDir = d.allFinite() && d.dot(g) < 0;
+    }
+
+    // Round-off floor at this state (rule 2).
+    const Eigen::VectorXd a = roundoff::unknownScale(system, u);
+    const Eigen::VectorXd rho = roundoff::residualFloor(H0, a);
+    double floorForce = system.forceResidual(rho).norm();
+    if (!std::isfinite(floorForce)) floorForce = 0.0;
+    rep.roundoffFloor = floorForce;
+
+    const bool small = res <= tolerance * scale;
     if (small && negative == 0) {
       rep.converged = true;
       rep.outcome = Outcome::Converged;
       rep.message = "force residual below tolerance";
       break;
     }
+    if (factorOk && negative == 0 && haveDir) {
+      if (res <= floorForce) {
+        // The decrement over the modes with stiffness: along a zero-stiffness
+        // mode the floored pivot says nothing, and the residual there is
+        // already judged by the floor.
+        // Along zero-stiffness modes, every component of the residual must be
+        // within its own round-off (a light part hinged to a heavy one is not
+        // judged by the heavy part's floor).
+        const double noiseDecrement = roundoff::energyFloor(H0, a);
+        const double decrement = factor.stiffDecrement(-g);
+        const bool componentsAtFloor =
+            singular == 0 || (system.forceResidual(g).cwiseAbs().array() <= system.forceResidual(rho).array()).all();
+        if (debug)
+          std::fprintf(stderr, "it %3d  at floor: res %.3e N floor %.3e N decrement %.3e J noise %.3e J\n", it, res,
+                       floorForce, decrement, noiseDecrement);
+        if (decrement <= noiseDecrement && componentsAtFloor) {
+          rep.converged = true;
+          rep.outcome = Outcome::Converged;
+          rep.roundoff = true;
+          rep.message = "force residual " + format("%.3g", res) + " N at the round-off floor of this problem (" +
+                        format("%.3g", floorForce) +
+                        " N) with a Newton decrement below the energy of rounding the unknowns";
+          break;
+        }
+      }
+      if (!modified && (d.cwiseAbs().array() <= kCorrectionUlps * kEps * u.cwiseAbs().array()).all()) {
+        rep.converged = true;
+        rep.outcome = Outcome::Converged;
+        rep.roundoff = true;
+        rep.message = "Newton correction below the round-off of every unknown (force residual " + format("%.3g", res) +
+                      " N, round-off floor " + format("%.3g", floorForce) + " N)";
+        break;
+      }
+    }
+    const bool atFloor = res <= floorForce;
     if (it >= opt.maxIterations) {
-      rep.message = small ? "converged to an unstable equilibrium (negative curvature persists)" : "iteration limit reached";
-      rep.converged = small;
-      rep.outcome = small ? Outcome::Converged : Outcome::MaxIterations;
+      // Still progressing (a long descent such as a mechanism's rigid swing,
+      // not a stall): over the last tenth of the iterations the energy fell
+      // by more than its round-off and the residual reached a new low.
+      {
+        const auto& hist = rep.residualHistory;
+        const std::size_t tenth = std::max<std::size_t>(1, hist.size() / 10);
+        const double before = *std::min_element(hist.begin(), hist.end() - tenth);
+        const double recent = *std::min_element(hist.end() - tenth, hist.end());
+        rep.progressing =
+            hist.size() > tenth && energyAtTenth - E > 1e-12 * std::max(std::abs(E), 1e-300) && recent < before;
+      }
+      const bool saddle = (small || atFloor) && negative > 0;
+      rep.message = saddle ? "reached an unstable equilibrium (negative curvature persists) at the iteration limit"
+                           : "iteration limit reached";
+      rep.unstable = saddle;
+      rep.outcome = saddle ? Outcome::Stalled : Outcome::MaxIterations;
+      break;
+    }
+    if (hasDeadline && Clock::now() > deadline) {
+      rep.outcome = Outcome::TimeLimit;
+      rep.message = "time limit reached";
       break;
     }
 
     // At an unstable equilibrium (a saddle, e.g. a perfectly straight column
     // above its buckling load), step along a direction of negative curvature:
     // z = P^T L^-T e_k has z^T H z = D_k < 0.
-    if (factorOk && negative > 0 && (small || res <= 1e-6 * scale) && escapes < opt.maxEscapes) {
-      Eigen::VectorXd y = Eigen::VectorXd::Zero(n);
-      y[worst] = 1.0;
-      ldlt.matrixU().solveInPlace(y);
-      Eigen::VectorXd z = ldlt.permutationPinv() * y;
+    if (factorOk && negative > 0 && (small || atFloor || res <= 1e-6 * scale) && escapes < opt.maxEscapes) {
+      Eigen::VectorXd z = factor.negativeCurvatureDirection();
       if (z.dot(g) > 0) z = -z;
-      z *= 0.1 * system.momentArm() / std::max(z.head(system.numVertexDofs()).lpNorm<Eigen::Infinity>(), 1e-300);
-      if (!z.allFinite() || system.numVertexDofs() == 0) z.setZero();
+      z *= 0.1 * system.momentArm() / std::max(z.head(nv).lpNorm<Eigen::Infinity>(), 1e-300);
+      if (!z.allFinite() || nv == 0) z.setZero();
       double best = E;
       Eigen::VectorXd uBest;
-      for (double a = 1.0; a > 1e-6; a *= 0.5) {
-        uTrial = u + a * z;
+      for (double s = 1.0; s > 1e-6; s *= 0.5) {
+        uTrial = u + s * z;
         const double Et = system.energy(uTrial, design);
-        if (std::isfinite(Et) && Et < best) { best = Et; uBest = uTrial; break; }
+        if (std::isfinite(Et) && Et < best) {
+          best = Et;
+          uBest = uTrial;
+          break;
+        }
       }
       ++escapes;
       rep.escapes++;
@@ -172,71 +242,69 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
         continue;
       }
     }
-    if (small) {
-      rep.converged = true;
-      rep.outcome = Outcome::Converged;
+    if (small || (atFloor && negative > 0 && escapes >= opt.maxEscapes)) {
+      // An equilibrium, but a saddle that the escapes could not leave: not a
+      // solution (a perturbation would carry the structure away from it).
+      rep.outcome = Outcome::Stalled;
       rep.unstable = true;
-      rep.message = "force residual below tolerance, but the equilibrium is unstable (negative curvature)";
+      rep.message = "reached an unstable equilibrium (negative curvature persists after " + std::to_string(escapes) +
+                    " steps along it)";
       break;
     }
     rep.iterations++;
 
-    // Direction: Newton, or modified Newton with |D| when indefinite; a
-    // diagonal shift as the last resort when the factorization itself fails.
-    bool haveDir = false;
-    double tau = 0.0;
-    if (factorOk) {
-      if (negative == 0 && singular == 0) {
-        d = ldlt.solve(-g);
-      } else {
-        Eigen::VectorXd Dmod = D.cwiseAbs().cwiseMax(std::max(delta, 1e-300));
-        d = solveModified(-g, Dmod);
-        rep.hessianModifications++;
-      }
-      haveDir = finite(d) && d.dot(g) < 0;
-    }
+    // A diagonal shift as the last resort when the factorization itself fails.
     if (!haveDir) {
-      Eigen::VectorXd diag(n);
-      double meanDiag = 0.0;
-      for (int c = 0; c < n; ++c) { diag[c] = std::abs(H0.valuePtr()[diagSlot[c]]); meanDiag += diag[c]; }
-      meanDiag = meanDiag > 0 ? meanDiag / n : 1.0;
-      for (int c = 0; c < n; ++c) diag[c] = std::max(diag[c], 1e-8 * meanDiag);
+      Eigen::VectorXd diag = H0.diagonal().cwiseAbs();
+      const double meanDiag = diag.sum() > 0 ? diag.sum() / n : 1.0;
+      diag = diag.cwiseMax(1e-8 * meanDiag);
       ta = Clock::now();
       for (tau = opt.minShift; tau <= opt.maxShift; tau *= 10) {
-        for (int c = 0; c < n; ++c) H.valuePtr()[diagSlot[c]] = H0.valuePtr()[diagSlot[c]] + tau * diag[c];
-        ldlt.factorize(H);
-        rep.factorizations++;
-        if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0).all()) continue;
-        d = ldlt.solve(-g);
-        if (finite(d) && d.dot(g) < 0) { haveDir = true; break; }
+        const int before = factor.factorizations();
+        const bool ok = factor.factorizeShifted(H0, tau * diag);
+        rep.factorizations += factor.factorizations() - before;
+        if (!ok) continue;
+        d = factor.solve(-g);
+        if (d.allFinite() && d.dot(g) < 0) {
+          haveDir = true;
+          break;
+        }
       }
       rep.factorSeconds += since(ta);
-      rep.hessianModifications++;
       if (!haveDir) {
         rep.outcome = Outcome::NumericalFailure;
         rep.message = "could not find a descent direction (Hessian shift exceeded its limit)";
         break;
       }
     }
-    // A pure Newton correction below the round-off of the unknowns cannot
-    // improve the solution: the residual is at the round-off level of the
-    // internal forces (stiff stretching against light loads). Only credible
-    // when the residual is already small (not, say, for a body drifting away).
-    if (negative == 0 && singular == 0 && tau == 0.0 && res <= std::sqrt(tolerance) * scale &&
-        d.lpNorm<Eigen::Infinity>() <= 1e3 * eps * u.lpNorm<Eigen::Infinity>()) {
-      rep.converged = true;
-      rep.outcome = Outcome::Converged;
-      rep.roundoff = true;
-      rep.message = "Newton correction at the round-off level of the unknowns";
+    if (modified || tau > 0) rep.hessianModifications++;
+
+    // Loads far beyond what the model can hold: the linear response to them
+    // is itself beyond double precision.
+    const double stepLength = maxVertexStep(system, d);
+    if (it == 0 && !modified && tau == 0 && !(stepLength <= kAbsurdDisplacement * size)) {
+      rep.outcome = Outcome::NumericalFailure;
+      rep.message = "the loads are beyond double precision: the linear response to them moves a vertex by " +
+                    format("%.3g", stepLength) + " m, a structure of " + format("%.3g", size) + " m";
       break;
     }
+    // Trust radius on the vertex displacements; a modified step's twist
+    // components are limited to a quarter turn.
+    double cap = 1.0;
+    if (stepLength > radius) cap = radius / stepLength;
+    if (modified && n > nv) {
+      const double dth = d.tail(n - nv).lpNorm<Eigen::Infinity>();
+      if (dth * cap > 0.5 * kPi) cap = 0.5 * kPi / dth;
+    }
+    const bool capped = cap < 1.0;
+    if (capped) d *= cap;
 
     // Backtracking line search on the energy; near convergence, where energy
     // differences drown in round-off, a step that reduces the residual is
     // accepted instead.
     double alpha = 1.0;
     const double slope = g.dot(d);
-    bool accepted = false;
+    bool accepted = false, anyFinite = false;
     double Etrial = 0.0;
     for (int b = 0; b <= opt.maxBacktracks; ++b) {
       uTrial = u + alpha * d;
@@ -244,13 +312,14 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
       Etrial = system.energy(uTrial, design);
       rep.assemblySeconds += since(ta);
       if (std::isfinite(Etrial)) {
+        anyFinite = true;
         if (Etrial <= E + opt.armijo * alpha * slope) {
           accepted = true;
         } else if (std::abs(Etrial - E) <= 1e-12 * std::max(std::abs(E), 1e-300)) {
           // Energy differences at round-off: judge the step by the residual.
           double e;
           system.evaluate(uTrial, design, e, gTrial, false);
-          accepted = finite(gTrial) && system.forceResidual(gTrial).norm() < res;
+          accepted = gTrial.allFinite() && system.forceResidual(gTrial).norm() < res;
         }
         if (accepted) break;
       }
@@ -261,18 +330,26 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
       ta = Clock::now();
       system.evaluate(uTrial, design, Etrial, gTrial, true);
       rep.assemblySeconds += since(ta);
-      accepted = std::isfinite(Etrial) && finite(gTrial);
+      accepted = std::isfinite(Etrial) && gTrial.allFinite();
     }
     if (!accepted) {
-      rep.outcome = Outcome::Stalled;
-      rep.message = "line search failed: no step along the descent direction lowers the energy";
+      if (!anyFinite) {
+        rep.outcome = Outcome::NumericalFailure;
+        rep.message = "line search failed: the energy is not finite anywhere along the step";
+      } else {
+        rep.outcome = Outcome::Stalled;
+        rep.message = "line search failed: no step along the descent direction lowers the energy";
+      }
       break;
     }
     if (debug)
-      std::fprintf(stderr, "it %3d  E %.12e  res %.3e  neg %d  tau %.1e  alpha %.3e  |d| %.3e  |dx| %.3e |dth| %.3e\n",
-                   it, E, rep.relativeResidual, negative, tau, alpha, d.norm(),
-                   d.head(system.numVertexDofs()).lpNorm<Eigen::Infinity>(),
-                   d.tail(n - system.numVertexDofs()).lpNorm<Eigen::Infinity>());
+      std::fprintf(stderr,
+                   "it %3d  E %.12e  res %.3e  floor %.3e  neg %d  sing %d  tau %.1e  cap %.2e  alpha %.3e  |dx| %.3e "
+                   "|dth| %.3e\n",
+                   it, E, rep.relativeResidual, scale > 0 ? floorForce / scale : floorForce, negative, singular, tau,
+                   cap, alpha, alpha * maxVertexStep(system, d),
+                   n > nv ? alpha * d.tail(n - nv).lpNorm<Eigen::Infinity>() : 0.0);
+    if (capped) radius = alpha == 1.0 ? 4.0 * radius : std::max(alpha * radius, 1e-6 * size);
     u = uTrial;
     E = Etrial;
     g = gTrial;
@@ -287,8 +364,104 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
   return rep;
 }
 
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u,
-                              const NewtonOptions& opt) {
+}  // namespace
+
+std::string NewtonOptions::isValid() const {
+  if (maxIterations < 1) return "maxIterations must be at least 1";
+  if (!(tolerance > 0 && tolerance < 1)) return "tolerance must lie in (0, 1)";
+  if (!(armijo > 0 && armijo < 0.5)) return "armijo must lie in (0, 0.5)";
+  if (maxBacktracks < 1) return "maxBacktracks must be at least 1";
+  if (!(minShift > 0 && maxShift > minShift)) return "need 0 < minShift < maxShift";
+  if (maxLoadHalvings < 0 || maxLoadHalvings > 60) return "maxLoadHalvings must lie in [0, 60]";
+  if (maxEscapes < 0) return "maxEscapes must be non-negative";
+  if (!(timeLimit >= 0) || !std::isfinite(timeLimit)) return "timeLimit must be finite and non-negative";
+  return "";
+}
+
+double loadScale(PoseSystem& system, const Design& design) {
+  Eigen::VectorXd u = system.restDofs(design);
+  Eigen::VectorXd g;
+  double e;
+  system.evaluate(u, design, e, g, false);
+  const Eigen::VectorXd r = system.forceResidual(g);
+  if (!r.allFinite()) return std::numeric_limits<double>::infinity();
+  return r.stableNorm();
+}
+
+double roundoffFloor(const PoseSystem& system, const Eigen::VectorXd& u) {
+  if (system.numDofs() == 0) return 0.0;
+  const double f =
+      system.forceResidual(roundoff::residualFloor(system.hessian(), roundoff::unknownScale(system, u))).norm();
+  return std::isfinite(f) ? f : 0.0;
+}
+
+bool Stability::zeroMode() const {
+  return ok && std::abs(smallestEigenvalue) <= kPivotRoundoff * kEps * largestDiagonal;
+}
+
+Stability stability(PoseSystem& system, const Design& design, const Eigen::VectorXd& u) {
+  Stability out;
+  const int n = system.numDofs(), nv = system.numVertexDofs();
+  if (n == 0) {
+    out.ok = true;
+    return out;
+  }
+  double e;
+  Eigen::VectorXd g;
+  system.evaluate(u, design, e, g, true);
+  // K = S H S with S = 1 on coordinates, 1/momentArm on twists.
+  Eigen::VectorXd s = Eigen::VectorXd::Ones(n);
+  s.tail(n - nv).setConstant(1.0 / system.momentArm());
+  Eigen::SparseMatrix<double> K = s.asDiagonal() * system.hessian() * s.asDiagonal();
+  if (!Eigen::Map<const Eigen::VectorXd>(K.valuePtr(), K.nonZeros()).allFinite()) return out;
+  for (int k = 0; k < K.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(K, k); it; ++it)
+      if (it.row() == it.col()) out.largestDiagonal = std::max(out.largestDiagonal, std::abs(it.value()));
+  Ldlt ldlt;
+  ldlt.compute(K);
+  Eigen::VectorXd D = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || !D.allFinite()) {
+    // Exactly singular: shift by round-off and retry.
+    double maxDiag = 0.0;
+    for (int k = 0; k < K.outerSize(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(K, k); it; ++it)
+        if (it.row() == it.col()) maxDiag = std::max(maxDiag, std::abs(it.value()));
+    Eigen::SparseMatrix<double> I(n, n);
+    I.setIdentity();
+    K += (kPivotRoundoff * kEps * std::max(maxDiag, 1e-300)) * I;
+    ldlt.compute(K);
+    D = ldlt.vectorD();
+    if (ldlt.info() != Eigen::Success || !D.allFinite()) return out;
+  }
+  out.ok = true;
+  for (int i = 0; i < n; ++i)
+    if (D[i] < 0) ++out.negative;
+  // Inverse iteration: converges to the eigenvalue of smallest magnitude.
+  Eigen::VectorXd x(n);
+  for (int i = 0; i < n; ++i) x[i] = pseudoSign(static_cast<std::uint64_t>(i)) * (1.0 + 0.5 * std::sin(0.37 * i));
+  x.normalize();
+  const Eigen::SparseMatrix<double> Kfull = K.selfadjointView<Eigen::Lower>();
+  double lambda = 0.0;
+  for (int k = 0; k < 60; ++k) {
+    Eigen::VectorXd y = ldlt.solve(x);
+    const double ny = y.norm();
+    if (!(ny > 0) || !std::isfinite(ny)) break;
+    x = y / ny;
+    const double next = x.dot(Kfull * x);
+    const bool settled = k > 3 && std::abs(next - lambda) <= 1e-10 * std::abs(next);
+    lambda = next;
+    if (settled) break;
+  }
+  out.smallestEigenvalue = lambda;
+  return out;
+}
+
+NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale, double tolerance,
+                         const NewtonOptions& opt) {
+  return newtonSolveUntil(system, design, u, scale, tolerance, opt, Clock::now(), false);
+}
+
+NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u, const NewtonOptions& opt) {
   PoseState state = system.restState(design);
   state.u = u;
   const double saved = system.loadFactor();
@@ -298,9 +471,11 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::V
   return r;
 }
 
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state,
-                              const NewtonOptions& opt) {
+NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state, const NewtonOptions& opt) {
   const auto t0 = Clock::now();
+  const bool hasDeadline = opt.timeLimit > 0;
+  const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(hasDeadline ? std::min(opt.timeLimit, 1e9) : 0.0));
   system.setLoadFactor(1.0);
   system.setCharts(state.charts);
   Eigen::VectorXd& u = state.u;
@@ -323,8 +498,23 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   auto finishState = [&](double lam) {
     state.charts = system.charts();
     state.loadFactor = lam;
+    total.loadFactor = lam;
   };
-  if (scale <= system.roundoffForce(design)) {
+  if (!std::isfinite(scale)) {
+    // Loads that overflow: nothing can be solved; the rest state is returned.
+    total.outcome = Outcome::NumericalFailure;
+    total.message =
+        "the loads overflow double precision (their force residual at rest is not finite): no equilibrium "
+        "can be computed; the returned state is the rest state";
+    u = rest.u;
+    system.setCharts(rest.charts);
+    total.residualNorm = scale;
+    total.relativeResidual = 1.0;
+    total.timeSeconds = since(t0);
+    finishState(0.0);
+    return total;
+  }
+  if (scale == 0.0) {
     // No load at all: the rest configuration is the equilibrium.
     total.converged = true;
     total.outcome = Outcome::Converged;
@@ -334,37 +524,60 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     Eigen::VectorXd g;
     double e;
     system.evaluate(u, design, e, g, false);
-    total.residualNorm = system.forceResidual(g).norm();
+    total.residualNorm = system.forceResidual(g).stableNorm();
     total.energy = e;
     total.timeSeconds = since(t0);
     finishState(1.0);
     return total;
   }
 
-  // Full load first, from the given state.
+  // Full load first, from the given state. A run that ends at its iteration
+  // limit while still descending steadily resumes from where it stopped: a
+  // mechanism's large rigid motion (a sheet swinging about a line of pinned
+  // vertices) takes many iterations at any load, and smaller load steps do
+  // not shorten it.
   Eigen::VectorXd uTry = u;
-  NewtonReport r = newtonSolve(system, design, uTry, scale, opt.tolerance, opt);
+  NewtonReport r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
   merge(r);
+  for (int resume = 0;
+       !r.converged && r.outcome == Outcome::MaxIterations && r.progressing && resume < opt.maxLoadHalvings; ++resume) {
+    r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
+    merge(r);
+    total.resumes++;
+  }
   double reached = 1.0;
   if (r.converged) {
     u = uTry;
+  } else if (r.outcome == Outcome::TimeLimit) {
+    reached = system.loadFactor() == 1.0 && state.loadFactor == 1.0 ? 1.0 : state.loadFactor;
+    r.message = "time limit reached at the full load before convergence; the returned state is the initial guess";
   } else {
     // Adaptive continuation in the load factor, from the rest state; the
-    // reference-frame charts travel with the state they belong to.
+    // reference-frame charts travel with the state they belong to. Not for a
+    // structure with a zero-stiffness mode at rest (see the header): smaller
+    // loads need the same large motion along it.
     system.setCharts(rest.charts);
+    system.setLoadFactor(0.0);
+    const Stability unloaded = stability(system, design, rest.u);
     Eigen::VectorXd uCur = rest.u;
     PoseSystem::Charts chartsCur = rest.charts;
     double lam = 0.0, step = 0.5;
     const double minStep = std::ldexp(1.0, -opt.maxLoadHalvings);
     // Intermediate load steps need not be tight, but never sloppy.
     const double stepTol = std::min(std::max(opt.tolerance, 1e-6), 1e-4);
-    bool failed = false;
-    while (lam < 1.0) {
+    bool failed = unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure, timedOut = false;
+    bool negativeBeyond = false;  // a failed step beyond lam met negative curvature
+    while (lam < 1.0 && !failed) {
+      if (hasDeadline && Clock::now() > deadline) {
+        timedOut = true;
+        break;
+      }
       const double next = std::min(1.0, lam + step);
       system.setLoadFactor(next);
       system.setCharts(chartsCur);
       uTry = uCur;
-      NewtonReport rs = newtonSolve(system, design, uTry, scale, next < 1.0 ? stepTol : opt.tolerance, opt);
+      NewtonReport rs = newtonSolveUntil(system, design, uTry, scale, next < 1.0 ? stepTol : opt.tolerance, opt,
+                                         deadline, hasDeadline);
       merge(rs);
       r = rs;
       if (rs.converged) {
@@ -372,21 +585,73 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         uCur = uTry;
         chartsCur = system.charts();
         step = std::min(2 * step, 1.0);
+        negativeBeyond = false;
+      } else if (rs.outcome == Outcome::TimeLimit) {
+        timedOut = true;
+        break;
       } else {
+        negativeBeyond = negativeBeyond || rs.negativePivots > 0 || rs.escapes > 0 || rs.unstable;
         step *= 0.5;
-        if (step < minStep) { failed = true; break; }
+        if (step < minStep) {
+          failed = true;
+          break;
+        }
       }
     }
     u = uCur;
     system.setCharts(chartsCur);
     reached = lam;
-    if (failed) {
-      std::ostringstream os;
-      os << "did not converge: the load step fell below " << minStep << " at load factor " << lam << " (last: "
-         << r.message << ")";
-      r.message = os.str();
+    if (timedOut) {
       r.converged = false;
-      r.outcome = Outcome::Stalled;
+      r.outcome = Outcome::TimeLimit;
+      r.message = "time limit reached at load factor " + format("%.6g", lam) + "; the returned state is the " +
+                  (lam > 0 ? "equilibrium at load factor " + format("%.6g", lam) + ", not at the full load"
+                           : std::string("rest state"));
+    } else if (failed) {
+      const std::string last = r.message;
+      const Outcome lastOutcome = r.outcome;
+      r.converged = false;
+      std::ostringstream os;
+      const std::string returned = lam > 0 ? "the returned state is the equilibrium at load factor " +
+                                                 format("%.6g", lam) + ", not at the full load"
+                                           : std::string("the returned state is the rest state (load factor 0)");
+      if (lastOutcome == Outcome::NumericalFailure && lam == 0.0) {
+        // Even the smallest load step cannot be represented.
+        r.outcome = Outcome::NumericalFailure;
+        os << "failed at every load step down to " << minStep << " of the full load (" << last << "); " << returned;
+      } else {
+        system.setLoadFactor(lam);
+        system.setCharts(chartsCur);
+        const Stability here = lam == 0.0 ? unloaded : stability(system, design, uCur);
+        total.smallestEigenvalue = here.smallestEigenvalue;
+        const bool lost = negativeBeyond || (here.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
+                                             here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
+        r.outcome = Outcome::Stalled;
+        if (unloaded.zeroMode()) {
+          os << "the unloaded structure has a mode without stiffness that double precision resolves (smallest "
+                "eigenvalue "
+             << format("%.3g", unloaded.smallestEigenvalue) << " N/m, at the round-off of stiffnesses up to "
+             << format("%.3g", unloaded.largestDiagonal)
+             << " N/m): either a mechanism, which the loads must carry through a large rigid motion that Newton did "
+                "not complete (vertices held by 'fixed' along one straight line act as a hinge: clamp one, or hold "
+                "one off that line; an unsupported part moves freely), or a discretization too fine for double "
+                "precision (the bending stiffness of a rod of N edges spans ~N^4); "
+             << returned << " (last attempt: " << last << ")";
+        } else if (lost) {
+          os << "the equilibrium path was lost at load factor " << format("%.6g", lam)
+             << ": no equilibrium was found within a load step of " << minStep
+             << " beyond it (a limit or bifurcation point; smallest stiffness eigenvalue there "
+             << format("%.4g", here.smallestEigenvalue) << " N/m, unloaded "
+             << format("%.4g", unloaded.smallestEigenvalue) << " N/m"
+             << (negativeBeyond ? "; negative curvature beyond it" : "") << "); " << returned
+             << " (last attempt: " << last << ")";
+        } else {
+          os << "did not reach the full load: the load step fell below " << minStep << " at load factor "
+             << format("%.6g", lam) << " (smallest stiffness eigenvalue there "
+             << format("%.4g", here.smallestEigenvalue) << " N/m); " << returned << " (last attempt: " << last << ")";
+        }
+      }
+      r.message = os.str();
     }
   }
   // The final verdict is judged at the full load, whatever the last step said.
@@ -394,15 +659,16 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   Eigen::VectorXd g;
   double e;
   system.evaluate(u, design, e, g, false);
-  total.residualNorm = system.forceResidual(g).norm();
+  total.residualNorm = system.forceResidual(g).stableNorm();
   total.relativeResidual = total.residualNorm / scale;
   total.energy = e;
   if (!std::isfinite(total.residualNorm) || !std::isfinite(e)) {
     r.converged = false;
     r.outcome = Outcome::NumericalFailure;
     r.message = "the final state has non-finite energy or forces (" + r.message + ")";
-  } else if (r.converged && !(total.residualNorm <= std::max(1e3 * opt.tolerance, std::sqrt(opt.tolerance)) * scale ||
-                              total.residualNorm <= system.roundoffForce(design))) {
+  } else if (r.converged && !r.roundoff &&
+             !(total.residualNorm <= std::max(1e3 * opt.tolerance, std::sqrt(opt.tolerance)) * scale ||
+               total.residualNorm <= r.roundoffFloor)) {
     r.converged = false;
     r.outcome = Outcome::Stalled;
     r.message = "the final state does not satisfy equilibrium at the full load (" + r.message + ")";
@@ -412,7 +678,9 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   if (!r.converged && total.outcome == Outcome::Converged) total.outcome = Outcome::Stalled;
   total.unstable = r.unstable;
   total.roundoff = r.roundoff;
+  total.roundoffFloor = r.roundoffFloor;
   total.negativePivots = r.negativePivots;
+  total.singularPivots = r.singularPivots;
   total.message = r.message;
   total.timeSeconds = since(t0);
   finishState(reached);

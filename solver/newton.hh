@@ -2,81 +2,143 @@
 // energy with a sparse LDL^T factorization and an Armijo backtracking line
 // search. Where the Hessian is indefinite (buckling, snap-through) the step
 // uses the modified factor L |D| L^T (a descent direction with the Hessian's
-// own scaling); a diagonal shift is the last resort when the factorization
+// own scaling); pivots at the round-off level of their own rows (mechanisms:
+// a rod free to swing about a pin, a sheet hinged on a line of pinned
+// vertices) are floored there (solver/modified_ldlt.hh). Every step is
+// limited to a trust radius on the vertex displacements (the structure's size
+// to start with, grown after full steps it limited, shrunk to what the line
+// search accepted), so that a zero-stiffness direction cannot throw the state
+// to infinity. A diagonal shift is the last resort when the factorization
 // fails. A converged state with negative curvature (a saddle, such as a
 // perfectly straight column above its buckling load) is left along a
 // direction of negative curvature, so that the solver ends at a stable
 // equilibrium or says it could not.
 //
-// Convergence is judged on the force residual (PoseSystem::forceResidual, in
-// newtons) relative to the pose's load scale: the residual of the undeformed
-// configuration under the full load (point forces, weight and prescribed
-// displacements). Nothing here is tuned to a particular scene.
+// Convergence is judged on the force residual r (PoseSystem::forceResidual,
+// in newtons) and is met in one of three ways (NewtonReport::message says
+// which):
+//   1. |r| <= tolerance * load scale, the load scale being the residual of the
+//      undeformed configuration under the full load (point forces, weight,
+//      prescribed displacements);
+//   2. the round-off floor: |r| <= the residual that rounding the unknowns to
+//      double precision alone produces, estimated from the actual stiffness and
+//      unknowns as  rho_i = eps sqrt(sum_j H_ij^2 a_j^2),  a_j = |u_j| + s_j
+//      (s_j: the mean edge length for a coordinate, 1 rad for a twist), AND
+//      the Newton decrement -g.d is no larger than the energy of that
+//      rounding, eps^2 sum_ij |H_ij| a_i a_j. The second condition keeps a
+//      smooth, low-mode error (a tip that is still off) from passing as
+//      noise: its residual can be as small as round-off while its decrement is
+//      orders of magnitude larger (5,001-vertex gravity cantilever: floor
+//      1.1e-2 N, reached residual 2.1e-3 N, decrement at the floor 2.5e-19 J,
+//      round-off energy 8e-18 J, decrement one iteration earlier 4e-13 J);
+//   3. the Newton correction is below the resolution of every unknown
+//      (|d_i| <= 4 eps |u_i|) with an unmodified factorization.
+// Nothing here is tuned to a particular scene.
 #pragma once
+
+#include <Eigen/Core>
+#include <limits>
+#include <string>
+#include <vector>
 
 #include "model/outcome.hh"
 #include "model/pose_system.hh"
 
-#include <Eigen/Core>
-#include <string>
-#include <vector>
-
 namespace rodmesh {
 
 struct NewtonOptions {
-  int maxIterations = 100;        // per load step
-  double tolerance = 1e-9;        // |residual| <= tolerance * load scale
-  double armijo = 1e-4;           // sufficient-decrease constant
-  int maxBacktracks = 30;         // halvings of the step per iteration
-  double minShift = 1e-10;        // first diagonal shift tried (relative to diag(H))
-  double maxShift = 1e12;         // give up beyond this shift
-  int maxLoadHalvings = 10;       // continuation: smallest load step is 2^-maxLoadHalvings
-  int maxEscapes = 20;            // steps along negative curvature away from unstable equilibria
-  std::string isValid() const;    // empty if valid, else what is wrong
+  int maxIterations = 100;      // per load step
+  double tolerance = 1e-9;      // |residual| <= tolerance * load scale
+  double armijo = 1e-4;         // sufficient-decrease constant
+  int maxBacktracks = 30;       // halvings of the step per iteration
+  double minShift = 1e-10;      // first diagonal shift tried (relative to diag(H))
+  double maxShift = 1e12;       // give up beyond this shift
+  int maxLoadHalvings = 10;     // continuation: smallest load step is 2^-maxLoadHalvings
+  int maxEscapes = 20;          // steps along negative curvature away from unstable equilibria
+  double timeLimit = 0.0;       // s of wall-clock time for a whole solveEquilibrium; 0: none
+  std::string isValid() const;  // empty if valid, else what is wrong
 };
 
 // Outcome of one Newton solve (one load step) or of a whole continuation.
 struct NewtonReport {
-  bool converged = false;           // outcome == Outcome::Converged
+  bool converged = false;  // outcome == Outcome::Converged
   Outcome outcome = Outcome::NumericalFailure;
-  int iterations = 0;               // Newton iterations (all load steps)
-  int loadSteps = 0;                // load steps taken (1 without continuation)
+  int iterations = 0;        // Newton iterations (all load steps)
+  int loadSteps = 0;         // load steps taken (1 without continuation), resumed runs included
+  int resumes = 0;           // full-load runs resumed after their iteration limit (still progressing)
+  bool progressing = false;  // stopped at the iteration limit while still descending steadily
   int factorizations = 0;
-  int hessianModifications = 0;     // iterations that needed a diagonal shift
-  int backtracks = 0;               // step halvings in line searches
-  double loadScale = 0.0;           // N
-  double residualNorm = 0.0;        // N, final
-  double relativeResidual = 0.0;    // residualNorm / loadScale
-  bool roundoff = false;            // converged because the Newton correction reached round-off
-  bool unstable = false;            // converged to an equilibrium with negative curvature
-  int negativePivots = 0;           // of the last factorization (0: stable)
-  int escapes = 0;                  // steps taken along negative curvature
-  int chartUpdates = 0;             // iterations after which reference-frame charts moved
-  double energy = 0.0;              // J, final
+  int hessianModifications = 0;   // iterations that needed a diagonal shift
+  int backtracks = 0;             // step halvings in line searches
+  double loadScale = 0.0;         // N
+  double residualNorm = 0.0;      // N, final
+  double relativeResidual = 0.0;  // residualNorm / loadScale
+  bool roundoff = false;          // converged because the Newton correction reached round-off
+  bool unstable = false;          // stopped at an equilibrium with negative curvature (a saddle: not converged)
+  int negativePivots = 0;         // of the last factorization (0: stable)
+  int singularPivots = 0;         // of the last factorization: pivots at round-off (zero-stiffness modes)
+  double roundoffFloor = 0.0;     // N, estimated force residual of round-off at the final state (rule 2 above)
+  double loadFactor = 1.0;        // load factor of the returned state (< 1: the full load was not reached)
+  double smallestEigenvalue = std::numeric_limits<double>::quiet_NaN();  // N/m, when the path was lost (see below)
+  int escapes = 0;                                                       // steps taken along negative curvature
+  int chartUpdates = 0;  // iterations after which reference-frame charts moved
+  double energy = 0.0;   // J, final
   double timeSeconds = 0.0;
   double assemblySeconds = 0.0, factorSeconds = 0.0;
   std::vector<double> residualHistory;  // relative residual per iteration
-  std::string message;              // why it stopped
+  std::string message;                  // why it stopped
 };
 
 // Minimises the pose energy from u (updated in place) at the system's current
 // load factor. `scale` is the load scale (N) used for the stopping test.
-NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale,
-                         double tolerance, const NewtonOptions& options);
+NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale, double tolerance,
+                         const NewtonOptions& options);
 
 // Full static solve of one pose with adaptive load continuation: tries the
 // full load first from `state` (its unknowns and charts: a warm start) and,
 // if Newton fails, advances the load factor in smaller steps from the rest
 // state. On exit `state` holds the solution, its charts and the load factor
 // reached (1 unless the continuation gave up).
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state,
-                              const NewtonOptions& options);
+//
+// When the continuation cannot advance (the load step falls below
+// 2^-maxLoadHalvings), the state returned is the equilibrium at the last load
+// factor reached, report.loadFactor says which, the outcome is not Converged,
+// and the message says so. If the stiffness there has (nearly) lost its
+// positive definiteness, or the failed steps beyond it met negative
+// curvature, the message reads "the equilibrium path was lost at load factor
+// X (a limit or bifurcation point; smallest stiffness eigenvalue Y N/m ...)"
+// and report.smallestEigenvalue holds Y.
+//
+// Non-finite loads (a load scale that overflows) or non-finite energies and
+// forces end with Outcome::NumericalFailure, never Converged.
+NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state, const NewtonOptions& options);
 // The same from u with the charts at the design's rest frames (a solve from
 // scratch); u: initial guess on entry (use PoseSystem::restDofs), solution on exit.
 NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u,
                               const NewtonOptions& options);
 
-// The load scale of a pose (see above), in newtons.
+// The load scale of a pose (see above), in newtons (+inf when the loads
+// overflow double precision).
 double loadScale(PoseSystem& system, const Design& design);
+
+// Stability of the state u at the system's current load factor and charts:
+// inertia of the Hessian and its eigenvalue of smallest magnitude, in N/m
+// (twist unknowns expressed as arc lengths theta * momentArm, so that every
+// entry is a stiffness against a displacement), by inverse iteration.
+struct Stability {
+  bool ok = false;   // false: the Hessian could not be factorized
+  int negative = 0;  // negative eigenvalues (0: stable)
+  double smallestEigenvalue = 0.0;
+  double largestDiagonal = 0.0;  // N/m, of the same (scaled) Hessian
+  // A zero-stiffness mode (a mechanism, or rigid motion of an unsupported
+  // structure): |smallest eigenvalue| at the round-off of the largest
+  // diagonal entry (kPivotRoundoff eps, solver/modified_ldlt.hh).
+  bool zeroMode() const;
+};
+Stability stability(PoseSystem& system, const Design& design, const Eigen::VectorXd& u);
+
+// Round-off floor of the force residual at u (rule 2 above), in newtons,
+// from the Hessian the system last assembled at u.
+double roundoffFloor(const PoseSystem& system, const Eigen::VectorXd& u);
 
 }  // namespace rodmesh

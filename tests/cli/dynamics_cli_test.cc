@@ -152,20 +152,51 @@ TEST_F(DynamicsCliTest, QuietDynamicRunPrintsNothing) {
   EXPECT_EQ(a.frames[0].time.size(), 3);
 }
 
-TEST_F(DynamicsCliTest, DynamicFailureExitsOneAndKeepsTheFramesReached) {
-  // One Newton iteration per step against a 1e-12 tolerance: every step of
-  // the large load is rejected until the step falls below its minimum.
+TEST_F(DynamicsCliTest, DynamicStopAtTimeLimitExitsOneAndKeepsTheFramesReached) {
+  // One Newton iteration per step against a 1e-12 tolerance: the large load
+  // is integrated in steps of ~1e-5 s (about 3 s of wall clock for 0.1 s of
+  // motion); --time-limit stops it long before the end.
   copySource("cantilever.json");
-  const RunOutcome r =
-      run("simulate cantilever.json -o out.h5 --dynamic --duration 0.1 --fps 50 --max-iter 1 --tol 1e-12");
+  const RunOutcome r = run(
+      "simulate cantilever.json -o out.h5 --dynamic --duration 0.1 --fps 50 --max-iter 1 --tol 1e-12 --time-limit 0.3");
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_EQ(files(), (std::vector<std::string>{"cantilever.json", "out.h5"}));
+  const Archive a = readArchive(path("out.h5"));
+  EXPECT_EQ(a.status, "not_converged");
+  const ArchivePose* p = poseOf(a, "large");
+  ASSERT_NE(p, nullptr);
+  EXPECT_EQ(p->status, "not_converged");
+  EXPECT_TRUE(p->positions.allFinite());
+  const ArchiveFrames* f = framesOf(a, "large");
+  ASSERT_NE(f, nullptr);
+  ASSERT_GE(f->positions.size(), 2u) << "t = 0 and the state reached";
+  EXPECT_GT(f->time[f->time.size() - 1], 0.0) << "the run moved";
+  EXPECT_LT(f->time[f->time.size() - 1], 0.1) << "the run stopped early";
+  EXPECT_EQ(f->positions.back(), p->positions);
+}
+
+TEST_F(DynamicsCliTest, DynamicFailureExitsOneAndKeepsTheStateReached) {
+  // A tip force of 1e300 N: no time step, however small, has a finite energy
+  // along its Newton step, so the steps are rejected until they fall below
+  // their minimum at t = 0.
+  writeText(path("absurd.json"), R"({
+    "format": "rodmesh-scene/1",
+    "material": {"young_modulus": 1e7, "poisson_ratio": 0.4, "density": 1000},
+    "vertices": [[0, 0, 0], [0.02, 0, 0], [0.04, 0, 0], [0.06, 0, 0], [0.08, 0, 0]],
+    "rods": [{"vertices": [0, 1, 2, 3, 4]}],
+    "radius": [0.002, 0.001],
+    "poses": [{"name": "large", "clamped": [{"vertex": 0}], "forces": [{"vertex": 4, "force": [0, -1e300, 0]}]}]
+  })");
+  const RunOutcome r = run("simulate absurd.json -o out.h5 --dynamic --duration 0.1 --fps 50");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_EQ(files(), (std::vector<std::string>{"absurd.json", "out.h5"}));
   const Archive a = readArchive(path("out.h5"));
   EXPECT_EQ(a.status, "failed");
   const ArchivePose* p = poseOf(a, "large");
   ASSERT_NE(p, nullptr);
   EXPECT_EQ(p->status, "failed");
   EXPECT_TRUE(p->positions.allFinite());
+  EXPECT_TRUE(std::isfinite(p->residualNorm));
   const ArchiveFrames* f = framesOf(a, "large");
   ASSERT_NE(f, nullptr);
   ASSERT_GE(f->positions.size(), 1u);

@@ -172,15 +172,22 @@ TEST_F(MeshInputCli, SlashFormsAndRelativeIndicesStillMesh) {
 TEST_F(MeshInputCli, NumericFlagsOfMeshAreValidated) {
   writeText(path("s.obj"), readText(kSourceDir + "/examples/surfaces/sphere.obj"));
   const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
-      {"--scale 1e999", {"--scale", "'1e999'", "not a finite number"}},  // used to abort
+      {"--scale 1e999", {"--scale", "'1e999'", "not a finite number", "[1e-06, 1e+06]"}},  // used to abort
       {"--scale nan", {"--scale", "'nan'"}},
       {"--scale 0", {"--scale", "(got 0)"}},
       {"--scale 1e9", {"--scale", "1000000000"}},
-      {"--refinement 2147483648", {"--refinement", "2147483648"}},  // used to run for minutes
-      {"--refinement inf", {"--refinement", "'inf'"}},
-      {"--cells 100000", {"--cells", "100000"}},
-      {"--iterations 1000000", {"--iterations", "1000000"}},
-      {"--restarts 1000000", {"--restarts", "1000000"}},
+      {"--refinement 2147483648", {"--refinement", "2147483648", "[1, 20]"}},  // used to run for minutes
+      {"--refinement inf", {"--refinement", "'inf'", "[1, 20]"}},
+      {"--cells 100000", {"--cells", "100000", "[2, 10000]"}},
+      // Integers beyond int or not whole: the range, not CLI11's "Could not convert".
+      {"--cells 2147483648", {"--cells", "'2147483648'", "[2, 10000]"}},
+      {"--cells 1e3", {"--cells", "'1e3'", "[2, 10000]"}},
+      {"--iterations 1000000", {"--iterations", "1000000", "[1, 1000]"}},
+      {"--iterations 99999999999", {"--iterations", "'99999999999'", "[1, 1000]"}},
+      {"--restarts 1000000", {"--restarts", "1000000", "[1, 20]"}},
+      {"--restarts 1.5", {"--restarts", "'1.5'", "[1, 20]"}},
+      {"--control-points -3", {"--control-points", "'-3'", "[2, 1000]"}},
+      {"--dual --faces 1e9", {"--faces", "'1e9'", "[4, 1000000]"}},
       {"--tolerance -1", {"--tolerance", "-1"}},
       {"--merge 2", {"--merge", "2"}},
       {"--edge-length 1e-12", {"--edge-length", "1e-12", "rod vertices"}},
@@ -212,6 +219,10 @@ TEST_F(MeshInputCli, NumericFlagsOfMeshAreValidated) {
   expectBadInput("mesh --grid hex --size 1e-300 0.2 --cells 2 2 -o out.json", {"--size", "1e-300"}, {"s.obj"});
   expectBadInput("mesh --grid hex --size 0.2 0.2 --cells 2 2 --pull right inf 0 0 -o out.json", {"--pull", "'inf'"},
                  {"s.obj"});
+  expectBadInput("mesh --grid hex --size 0.2 0.2 --cells 2147483648 2 -o out.json",
+                 {"--cells", "'2147483648'", "two whole numbers NX NY >= 1"}, {"s.obj"});
+  expectBadInput("mesh --grid hex --size 0.2 0.2 --cells 2 2 --rod-vertices 99999999999 -o out.json",
+                 {"--rod-vertices", "'99999999999'", "[2, 2147483647]"}, {"s.obj"});
 }
 
 TEST_F(MeshInputCli, NumericFlagsOfExportAreValidatedAndTheGridIsBounded) {
@@ -221,7 +232,8 @@ TEST_F(MeshInputCli, NumericFlagsOfExportAreValidatedAndTheGridIsBounded) {
   // 1e-6 m used to run for an hour; now refused from an estimate, with a step to use.
   expectBadInput("export c.h5 -o c.stl --resolution 1e-6",
                  {"--resolution 1e-06 m would need about", "triangles", "use --resolution", "or coarser"}, inputs);
-  expectBadInput("export c.h5 -o c.stl --resolution 1e999", {"--resolution", "'1e999'", "not a finite number"}, inputs);
+  expectBadInput("export c.h5 -o c.stl --resolution 1e999",
+                 {"--resolution", "'1e999'", "not a finite number", "(0, 1] m"}, inputs);
   expectBadInput("export c.h5 -o c.stl --resolution nan", {"--resolution", "'nan'"}, inputs);
   expectBadInput("export c.h5 -o c.stl --resolution -0.001", {"--resolution", "-0.001"}, inputs);
   expectBadInput("export c.h5 -o c.stl --resolution 5", {"--resolution", "(got 5)"}, inputs);

@@ -44,6 +44,7 @@ class OptimizeCli : public ::testing::Test {
     return (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
   }
   std::vector<std::string> files() const { return clitest::listFiles(dir_); }
+  void checkRecovery(const std::string& args, const std::string& method);
   std::string dir_;
 };
 
@@ -58,14 +59,20 @@ double rms(const std::vector<ArchivePose>& poses, bool initial) {
   return std::sqrt(s / n);
 }
 
-TEST_F(OptimizeCli, ReducedRecoversAHiddenDesignAndItsPositionsAreEquilibria) {
+// Runs `optimize` with `args`, checks recovery (<= 5% of the default design's
+// RMS), bounds, the archive, and that `simulate` from scratch on the archived
+// design reproduces the archived positions.
+void OptimizeCli::checkRecovery(const std::string& args, const std::string& method) {
   std::string err;
-  const int status = run("optimize scene.json -o out.h5 --method reduced --max-iter 300", &err);
+  const int status = run("optimize scene.json -o out.h5 " + args, &err);
   ASSERT_TRUE(status == 0 || status == 1) << err;
   const Archive a = readArchive(path("out.h5"));
   EXPECT_EQ(a.command, "optimize");
   ASSERT_TRUE(a.optimize.has_value());
-  EXPECT_EQ(a.optimize->method, "reduced");
+  EXPECT_EQ(a.optimize->method, method);
+  EXPECT_GT(a.optimize->peakMemoryBytes, 0);
+  EXPECT_GT(a.optimize->evaluationSeconds, 0.0);
+  EXPECT_LE(a.optimize->evaluationSeconds + a.optimize->solverSeconds, a.optimize->timeSeconds * (1 + 1e-9) + 1e-9);
   ASSERT_EQ(a.poses.size(), 2u);
   const double initial = rms(a.poses, true), final = rms(a.poses, false);
   EXPECT_GT(initial, 5e-4);
@@ -76,8 +83,16 @@ TEST_F(OptimizeCli, ReducedRecoversAHiddenDesignAndItsPositionsAreEquilibria) {
   EXPECT_LE(a.radii.maxCoeff(), 0.004 + 1e-15);
   ASSERT_TRUE(a.history.has_value());
   ASSERT_GE(a.history->objective.size(), 2u);
-  for (std::size_t i = 1; i < a.history->objective.size(); ++i)
-    EXPECT_LE(a.history->objective[i], a.history->objective[i - 1] * (1 + 1e-12));
+  // The reduced method's iterates are equilibria and never raise the
+  // objective; SAND's are not equilibria (their violation is archived).
+  if (method == "reduced")
+    for (std::size_t i = 1; i < a.history->objective.size(); ++i)
+      EXPECT_LE(a.history->objective[i], a.history->objective[i - 1] * (1 + 1e-12));
+  if (method == "sand") {
+    double worst = 0.0;
+    for (double v : a.history->constraintViolation) worst = std::max(worst, v);
+    EXPECT_GT(worst, 0.0) << "SAND's iterates leave equilibrium on the way";
+  }
   ASSERT_TRUE(a.controlPoints.has_value());
   EXPECT_EQ(a.controlPoints->radii.rows(), static_cast<long>(a.controlPoints->rod.size()));
 
@@ -98,6 +113,10 @@ TEST_F(OptimizeCli, ReducedRecoversAHiddenDesignAndItsPositionsAreEquilibria) {
     ASSERT_TRUE(a.poses[p].equilibriumGap.has_value());
     EXPECT_LT(*a.poses[p].equilibriumGap, 1e-6);
   }
+}
+
+TEST_F(OptimizeCli, ReducedRecoversAHiddenDesignAndItsPositionsAreEquilibria) {
+  checkRecovery("--method reduced --max-iter 300", "reduced");
 }
 
 TEST_F(OptimizeCli, TimeLimitStopsWithAValidArchiveOfTheBestDesign) {
@@ -159,3 +178,56 @@ TEST_F(OptimizeCli, ScenesThatCannotBeOptimizedAreExit2NamingTheKey) {
 
 }  // namespace
 }  // namespace rodmesh
+
+#ifdef RODMESH_HAVE_NLP
+namespace rodmesh {
+namespace {
+
+TEST_F(OptimizeCli, SandIsTheDefaultAndRecoversAHiddenDesign) { checkRecovery("--max-iter 300", "sand"); }
+
+TEST_F(OptimizeCli, SandPassesIpoptOptionsAndReportsAnOptionsFile) {
+  std::string err;
+  clitest::writeText(path("ipopt.opt"), "mu_strategy monotone\n");
+  const int status = run("optimize scene.json -o out.h5 --ipopt mu_init=0.01 --ipopt max_cpu_time=1000", &err);
+  ASSERT_TRUE(status == 0 || status == 1) << err;
+  EXPECT_NE(err.find("ipopt.opt"), std::string::npos) << err;
+  EXPECT_NE(err.find("viol"), std::string::npos) << "progress lines report the constraint violation\n" << err;
+  EXPECT_NE(err.find("dual inf"), std::string::npos) << err;
+  const Archive a = readArchive(path("out.h5"));
+  EXPECT_LT(rms(a.poses, false), 0.05 * rms(a.poses, true));
+}
+
+TEST_F(OptimizeCli, SandTimeLimitStopsWithAValidArchiveOfTheBestDesign) {
+  std::string err;
+  const int status = run("optimize scene.json -o out.h5 --max-iter 100000 --time-limit 0.3", &err);
+  EXPECT_EQ(status, 1) << err;
+  const Archive a = readArchive(path("out.h5"));
+  EXPECT_EQ(a.status, "not_converged");
+  ASSERT_TRUE(a.optimize.has_value());
+  EXPECT_EQ(a.optimize->method, "sand");
+  EXPECT_LT(a.optimize->timeSeconds, 5.0);
+  EXPECT_LE(rms(a.poses, false), rms(a.poses, true));
+  for (const ArchivePose& p : a.poses) EXPECT_LT(p.residualNorm, 1e-6) << p.name;
+}
+
+TEST_F(OptimizeCli, BadIpoptOptionsAreExit2AndWriteNothing) {
+  const std::vector<std::string> before = files();
+  for (const std::string args : {"--ipopt no_such_option=1", "--ipopt tol=abc", "--ipopt tol", "--ipopt =3",
+                                 "--ipopt mu_strategy=sometimes", "--ipopt max_iter=-5", "--ipopt tol=-1"}) {
+    std::string err;
+    EXPECT_EQ(run("optimize scene.json -o out.h5 " + args, &err), 2) << args << "\n" << err;
+    EXPECT_NE(err.find("--ipopt"), std::string::npos) << args << "\n" << err;
+    EXPECT_EQ(files(), before) << args;
+  }
+  // A broken ./ipopt.opt is bad input too.
+  clitest::writeText(path("ipopt.opt"), "no_such_option 3\n");
+  const std::vector<std::string> withFile = files();
+  std::string err;
+  EXPECT_EQ(run("optimize scene.json -o out.h5", &err), 2) << err;
+  EXPECT_NE(err.find("ipopt.opt"), std::string::npos) << err;
+  EXPECT_EQ(files(), withFile);
+}
+
+}  // namespace
+}  // namespace rodmesh
+#endif

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <dirent.h>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -502,8 +503,11 @@ TEST(Archive, ReadsFixedLengthStringAttributes) {
     SCOPED_TRACE(pad == H5T_STR_NULLPAD ? "null-padded" : "null-terminated");
     const std::string path = dir / "fixed.h5";
     {
-      hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+      // A complete archive whose root strings are then rewritten fixed-length.
+      writeArchive(fullArchive(), path);
+      hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
       ASSERT_GE(f, 0);
+      for (const char* name : {"format", "status", "command"}) ASSERT_GE(H5Adelete(f, name), 0);
       // Null-padded strings may fill their size exactly; null-terminated ones
       // need one more byte.
       const std::size_t extra = pad == H5T_STR_NULLPAD ? 0 : 1;
@@ -633,13 +637,29 @@ TEST(ArchiveInterrupt, PreviousHandlersAreRestoredAfterAWrite) {
   EXPECT_EQ(g_seenSignal, SIGINT);
 }
 
-// In a death-test child: a thread sends `sig` to the process as soon as the
-// temporary file of `path` exists (the write is then held open by
-// RODMESH_TEST_SLOW_WRITE).
+// True while this process writes the archive `path`: it holds an unnamed
+// file (O_TMPFILE) in the directory of `path` open, or PATH.tmp.PID exists
+// (file systems without O_TMPFILE).
+bool writingArchive(const std::string& path) {
+  const std::string dir = path.substr(0, path.find_last_of('/'));
+  if (DIR* d = opendir("/proc/self/fd")) {
+    bool found = false;
+    while (dirent* e = readdir(d)) {
+      char target[4096];
+      const ssize_t n = readlink(("/proc/self/fd/" + std::string(e->d_name)).c_str(), target, sizeof target - 1);
+      if (n > 0 && std::string(target, n).rfind(dir + "/#", 0) == 0) found = true;
+    }
+    closedir(d);
+    if (found) return true;
+  }
+  return fileExists(path + ".tmp." + std::to_string(getpid()));
+}
+
+// In a death-test child: a thread sends `sig` to the process as soon as it
+// writes `path` (the write is then held open by RODMESH_TEST_SLOW_WRITE).
 void signalOnceTheTempFileExists(const std::string& path, int sig) {
   std::thread([path, sig] {
-    const std::string tmp = path + ".tmp." + std::to_string(getpid());
-    for (int i = 0; i < 4000 && !fileExists(tmp); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    for (int i = 0; i < 4000 && !writingArchive(path); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     kill(getpid(), sig);
   }).detach();
 }
@@ -670,6 +690,36 @@ TEST(ArchiveInterruptDeathTest, SigtermDuringAWriteRemovesTheTemporaryFileAndExi
       },
       ::testing::ExitedWithCode(143), "");
   EXPECT_TRUE(dir.files().empty());
+}
+
+TEST(ArchiveInterruptDeathTest, SigkillDuringAWriteLeavesNoFile) {
+  // The archive is written into an unnamed file: nothing remains of a writer
+  // killed in the middle, not even by SIGKILL.
+  TempDir dir;
+  const std::string path = dir / "out.h5";
+  EXPECT_EXIT(
+      {
+        setenv("RODMESH_TEST_SLOW_WRITE", "30", 1);
+        signalOnceTheTempFileExists(path, SIGKILL);
+        writeArchive(fullArchive(), path);
+        std::exit(0);
+      },
+      ::testing::KilledBySignal(SIGKILL), "");
+  EXPECT_TRUE(dir.files().empty());
+}
+
+TEST(Archive, TheImageInMemoryIsTheFileWriteArchiveWrites) {
+  TempDir dir;
+  const Archive a = fullArchive();
+  writeArchive(a, dir / "out.h5");
+  const std::string image = writeArchiveImage(a);
+  std::ifstream in(dir / "out.h5", std::ios::binary);
+  const std::string file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(file.size(), image.size());
+  const Archive b = readArchiveImage(image.data(), image.size(), "image");
+  EXPECT_EQ(b.sceneJson, a.sceneJson);
+  EXPECT_EQ(b.poses.size(), a.poses.size());
+  EXPECT_EQ(b.frames[0].positions[2], a.frames[0].positions[2]);
 }
 
 TEST(ArchiveInterruptDeathTest, SecondSignalDuringTheFinalWriteRemovesTheTemporaryFile) {

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -102,7 +103,7 @@ TEST(SceneReaderErrors, EmptyFile) {
 }
 
 TEST(SceneReaderErrors, TopLevelNotAnObject) {
-  expectMessage(errorOf(std::string("[1, 2, 3]")), "<root>");
+  expectMessage(errorOf(std::string("[1, 2, 3]")), "<root>", {"got array [1,2,3]"});
 }
 
 TEST(SceneReaderErrors, MissingFileNamesThePath) {
@@ -145,7 +146,7 @@ TEST(SceneReaderErrors, MissingMaterial) {
 TEST(SceneReaderErrors, MaterialNotAnObject) {
   json j = baseScene();
   j["material"] = json::array({1, 2, 3});
-  expectMessage(errorOf(j), "material");
+  expectMessage(errorOf(j), "material", {"got array [1,2,3]"});
 }
 
 TEST(SceneReaderErrors, MissingMaterialKeys) {
@@ -195,7 +196,7 @@ TEST(SceneReaderErrors, MissingRods) {
 TEST(SceneReaderErrors, EmptyRods) {
   json j = baseScene();
   j["rods"] = json::array();
-  expectMessage(errorOf(j), "rods");
+  expectMessage(errorOf(j), "rods", {"got []"});
 }
 
 TEST(SceneReaderErrors, RodWithoutVerticesKey) {
@@ -225,7 +226,7 @@ TEST(SceneReaderErrors, MissingPoses) {
 TEST(SceneReaderErrors, EmptyPoses) {
   json j = baseScene();
   j["poses"] = json::array();
-  expectMessage(errorOf(j), "poses");
+  expectMessage(errorOf(j), "poses", {"got []"});
 }
 
 TEST(SceneReaderErrors, PoseNotAnObject) {
@@ -237,7 +238,7 @@ TEST(SceneReaderErrors, PoseNotAnObject) {
 TEST(SceneReaderErrors, FixedNotAnArray) {
   json j = baseScene();
   j["poses"][0]["fixed"] = json::object({{"vertex", 0}});
-  expectMessage(errorOf(j), "poses[0].fixed");
+  expectMessage(errorOf(j), "poses[0].fixed", {"got object {\"vertex\":0}"});
 }
 
 TEST(SceneReaderErrors, FixedEntryWithoutVertex) {
@@ -279,7 +280,7 @@ TEST(SceneReaderErrors, NormalsOfWrongCount) {
 TEST(SceneReaderErrors, ZeroNormal) {
   json j = baseScene();
   j["normals"] = json::parse("[[0,0,1],[0,0,1],[0,0,0],[0,0,1]]");
-  expectMessage(errorOf(j), "normals[2]");
+  expectMessage(errorOf(j), "normals[2]", {"got [0,0,0]"});
 }
 
 TEST(SceneReaderErrors, MissingRadiusAndRadii) {
@@ -297,12 +298,118 @@ TEST(SceneReaderErrors, NonFiniteVertexCoordinate) {
   const auto pos = text.find(from);
   ASSERT_NE(pos, std::string::npos) << text;
   text.replace(pos, from.size(), "[0.02,1e999,0]");
-  // The JSON parser rejects the overflow before the reader sees a key path;
-  // the message must still name the file and the offending value.
+  // The parser rejects the overflow; the message names the number's key path,
+  // its text, line and column (issue 9: it used to name no key).
   const std::string msg = errorOf(text);
-  EXPECT_EQ(msg.rfind(std::string(kFile) + ": ", 0), 0u) << msg;
-  EXPECT_NE(msg.find("1e999"), std::string::npos) << msg;
-  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  expectMessage(msg, "vertices[2][1]", {"1e999", "out of range", "line 1, column "});
+  const std::size_t column = std::stoul(msg.substr(msg.find("column ") + 7));
+  EXPECT_EQ(text.substr(column - 1, 5), "1e999") << msg;
+}
+
+TEST(SceneReaderErrors, NumberOverflowAnywhereNamesItsKeyPath) {
+  struct Case {
+    std::string from, to, path;
+  };
+  const std::vector<Case> cases = {
+      {"\"density\":1200.0", "\"density\":1e400", "material.density"},
+      {"\"radius\":[0.002,0.001]", "\"radius\":[0.002,-2e308]", "radius[1]"},
+      {"\"force\":[0,0,-0.5]", "\"force\":[0,0,-0.5e310]", "poses[0].forces[0].force[2]"},
+      {"\"vertex\":3}", "\"vertex\":3e999}", "poses[0].forces[0].vertex"},
+  };
+  for (const Case& c : cases) {
+    std::string text = baseScene().dump();
+    const auto pos = text.find(c.from);
+    ASSERT_NE(pos, std::string::npos) << c.from << " in " << text;
+    text.replace(pos, c.from.size(), c.to);
+    expectMessage(errorOf(text), c.path, {"out of range"});
+  }
+  expectMessage(errorOf(std::string("  1e999")), "<root>", {"1e999", "line 1, column 3"});
+}
+
+TEST(SceneReaderErrors, DeepNestingIsRejectedBeforeParsing) {
+  // 100,000 nested arrays used to crash simulate (recursion while formatting
+  // the error): refused at the first bracket beyond the limit, with its line
+  // and column.
+  const std::string msg = errorOf(std::string(100000, '['));
+  EXPECT_EQ(msg.rfind(std::string(kFile) + ": line 1, column 65: ", 0), 0u) << msg;
+  EXPECT_TRUE(contains(msg, "nested deeper than 64")) << msg;
+  // Inside a scene, on its own line; brackets in strings do not count.
+  json j = baseScene();
+  j["description"] = std::string(200, '[');
+  std::string text = j.dump(1);
+  const auto pos = text.find("\"rods\"");
+  ASSERT_NE(pos, std::string::npos);
+  text.insert(pos, "\"deep\": " + std::string(70, '[') + std::string(70, ']') + ",\n");
+  const std::string deep = errorOf(text);
+  const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + pos, '\n'));
+  EXPECT_TRUE(contains(deep, "line " + std::to_string(line) + ", column 73: arrays and objects nested deeper")) << deep;
+  // 64 levels are fine as far as nesting goes (and then rejected for what they are).
+  json k = baseScene();
+  k["vertices"][0] = json::parse(std::string(62, '[') + std::string(62, ']'));
+  const std::string shallow = errorOf(k);
+  expectMessage(shallow, "vertices[0]", {"expected an array of 3 numbers"});
+  EXPECT_LT(shallow.size(), 200u) << "the value is shown shortened";
+}
+
+TEST(SceneReaderErrors, SyntaxErrorsNameLineColumnAndWhereInTheScene) {
+  const std::string text = "{\"format\": \"rodmesh-scene/1\",\n \"material\": {\"young_modulus\": tru}}";
+  const std::string msg = errorOf(text);
+  EXPECT_EQ(msg.rfind(std::string(kFile) + ": not valid JSON (line 2, column ", 0), 0u) << msg;
+  EXPECT_TRUE(contains(msg, "in material.young_modulus")) << msg;
+  EXPECT_TRUE(contains(msg, "invalid literal; last read: '\"young_modulus\": tru}'")) << "the text read: " << msg;
+  EXPECT_FALSE(contains(msg, "json.exception")) << msg;
+}
+
+TEST(SceneReaderErrors, LargeValuesAreShownShortened) {
+  // The message shows a bounded prefix of the value, however large it is.
+  json j = baseScene();
+  j["rods"][0] = json::array();
+  for (int i = 0; i < 100000; ++i) j["rods"][0].push_back("a long string value");
+  const std::string msg = errorOf(j);
+  expectMessage(msg, "rods[0]", {"[\"a long string value\"", "..."});
+  EXPECT_LT(msg.size(), 300u) << msg;
+}
+
+TEST(SceneReaderErrors, NamesAndKeysWithControlCharactersKeepMessagesOnOneLine) {
+  // Found by fuzz_scene: keys and names are quoted and escaped in key paths,
+  // messages and warnings.
+  const std::string syntax = errorOf(std::string("{\"design\": {\"a\\nb\": ]}}"));
+  EXPECT_TRUE(contains(syntax, "in design[\"a\\nb\"]")) << syntax;
+  EXPECT_EQ(syntax.find('\n'), std::string::npos) << syntax;
+  json j = baseScene();
+  j["poses"].push_back(j["poses"][0]);
+  j["poses"][0]["name"] = j["poses"][1]["name"] = "two\nlines";
+  expectMessage(errorOf(j), "poses[1].name", {"duplicate pose name \"two\\nlines\""});
+  json k = baseScene();
+  k["effects"] = json::array({"stretch", "be\x1b[2Jnd"});
+  expectMessage(errorOf(k), "effects[1]", {"unknown effect \"be\\u001b[2Jnd\""});
+  json w = baseScene();
+  w["material"]["odd\nkey"] = 1;
+  parseScene(w.dump(), kFile);
+  ASSERT_EQ(lastSceneWarnings().size(), 1u);
+  EXPECT_EQ(lastSceneWarnings()[0], std::string(kFile) + ": material[\"odd\\nkey\"]: unknown key ignored");
+}
+
+TEST(SceneReaderErrors, DefaultPoseNameCollisionNamesBothPoses) {
+  json j = baseScene();
+  j["poses"].push_back(json::parse(R"({"fixed": [{"vertex": 0}]})"));  // default name pose1
+  j["poses"][0]["name"] = "pose1";
+  expectMessage(errorOf(j), "poses[1]", {"default name \"pose1\"", "poses[0]"});
+}
+
+TEST(SceneReaderErrors, NotAFileOrTooLarge) {
+  try {
+    readSceneFile("/tmp");
+    FAIL() << "a directory accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "/tmp: is a directory, not a scene file");
+  }
+  try {
+    readSceneFile("/dev/zero");  // endless: refused, not read
+    FAIL() << "a device accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("/dev/zero: not a regular file", 0), 0u) << e.what();
+  }
 }
 
 TEST(SceneReaderErrors, NonFiniteYoungModulus) {
@@ -311,9 +418,7 @@ TEST(SceneReaderErrors, NonFiniteYoungModulus) {
   const auto pos = text.find(from);
   ASSERT_NE(pos, std::string::npos) << text;
   text.replace(pos, from.size(), "\"young_modulus\":-1e400");
-  const std::string msg = errorOf(text);
-  EXPECT_EQ(msg.rfind(std::string(kFile) + ": ", 0), 0u) << msg;
-  EXPECT_NE(msg.find("-1e400"), std::string::npos) << msg;
+  expectMessage(errorOf(text), "material.young_modulus", {"-1e400"});
 }
 
 // ---------------------------------------------------------------- index ranges
@@ -380,7 +485,7 @@ TEST(SceneReaderErrors, TwistingMomentVertexIndexOutOfRange) {
 TEST(SceneReaderErrors, ZeroLengthEdge) {
   json j = baseScene();
   j["vertices"][2] = j["vertices"][1];
-  expectMessage(errorOf(j), "rods[0].vertices[2]", {"1", "2"});
+  expectMessage(errorOf(j), "rods[0].vertices[2]", {"vertices 1 and 2", "both at [0.01,0,0]"});
 }
 
 TEST(SceneReaderErrors, VertexRepeatedInOneRod) {
@@ -554,13 +659,13 @@ TEST(SceneReaderErrors, UnknownEffectName) {
 TEST(SceneReaderErrors, EffectsWithoutStretch) {
   json j = baseScene();
   j["effects"] = {"bend", "twist"};
-  expectMessage(errorOf(j), "effects", {"stretch"});
+  expectMessage(errorOf(j), "effects", {"stretch", "got [\"bend\",\"twist\"]"});
 }
 
 TEST(SceneReaderErrors, GravityEffectWithoutGravityVector) {
   json j = baseScene();
   j["effects"] = {"stretch", "bend", "gravity"};
-  expectMessage(errorOf(j), "effects", {"gravity"});
+  expectMessage(errorOf(j), "effects", {"gravity", "got [\"stretch\",\"bend\",\"gravity\"]"});
 }
 
 TEST(SceneReaderErrors, EffectNotAString) {

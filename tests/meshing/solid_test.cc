@@ -204,6 +204,10 @@ class ExportTest : public ::testing::Test {
     a.status = "converged";
     a.sceneJson = sceneToJson(scene_);
     const int nv = static_cast<int>(scene_.vertices.size());
+    // The /model counts every archive carries (checked against the scene by export).
+    a.nVertices = nv;
+    a.nRods = static_cast<long long>(scene_.rods.size());
+    for (const Rod& r : scene_.rods) a.nEdges += static_cast<long long>(r.vertices.size()) - 1;
     a.restPositions.resize(nv, 3);
     a.radii.resize(nv, 2);
     ArchivePose p;
@@ -279,7 +283,8 @@ TEST_F(ExportTest, NonFiniteArchiveDataIsAnInputError) {
     exportSolid(bad, stl, o);
     ADD_FAILURE() << "NaN position accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("/poses/squashed/positions row 3 is not finite"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("/poses/squashed/positions: entry [3][1] is not finite, got nan"),
+              std::string::npos)
         << e.what();
   }
   EXPECT_FALSE(fileExists(stl));

@@ -4,6 +4,7 @@
 // states, in 3D (with and without twist) and with planar unknowns.
 #include "model/pose_system.hh"
 #include "solver/equilibrium.hh"
+#include "tests/testutil/scenes.hh"
 #include "tests/testutil/taylor.hh"
 
 #include <gtest/gtest.h>
@@ -31,29 +32,14 @@ const char* kindName(Kind k) {
   return "?";
 }
 
-// A small rod network: a 3-valent connection (vertex 0) of three curved rods
-// and a 2-valent, nearly straight connection (vertex 4) in the middle of one
-// of them, anisotropic radii, far ends fixed or clamped, loads.
+// The shared test network (tests/testutil/scenes.hh: a 3-valent connection of
+// three curved rods and a 2-valent one at vertex 2, anisotropic radii), its
+// far ends clamped or fixed, a point load.
 Scene makeNetwork(bool planar) {
-  Scene s;
+  testutil::StarNetworkOptions o;
+  o.lift = planar ? 0.0 : 0.001;
+  Scene s = testutil::starNetwork(o);
   s.sourcePath = "<derivatives>";
-  s.material = Material{2e7, 0.45, 1100.0};
-  s.vertices.push_back(Vec3(0, 0, 0));
-  const double angles[3] = {0.1, 2.2, 4.1};
-  for (int r = 0; r < 3; ++r) {
-    const Vec3 dir(std::cos(angles[r]), std::sin(angles[r]), 0.0);
-    const Vec3 side(-dir.y(), dir.x(), 0.0);
-    const int first = static_cast<int>(s.vertices.size());
-    for (int i = 1; i <= 3; ++i)
-      s.vertices.push_back(0.01 * i * dir + 0.0008 * i * i * side + Vec3(0, 0, planar ? 0.0 : 0.001 * i * i));
-    s.rods.push_back(Rod{{0, first, first + 1, first + 2}, std::nullopt});
-  }
-  // Split rod 0 at its second vertex (index 2): rods 0-1-2 and 2-3 share vertex 2.
-  s.rods[0].vertices = {0, 1, 2};
-  s.rods.push_back(Rod{{2, 3}, std::nullopt});
-  for (std::size_t v = 0; v < s.vertices.size(); ++v)
-    s.radii.push_back(Vec2(0.0012 + 0.0002 * (v % 4), 0.0008 + 0.0001 * (v % 3)));
-  s.gravity = planar ? Vec3(0.0, -9.81, 0.0) : Vec3(0.5, -2.0, -9.81);
   Pose p;
   p.name = "p";
   p.clamped.push_back({3});

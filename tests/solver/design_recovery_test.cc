@@ -3,9 +3,9 @@
 // optimizer starts from the uniform default design and must cut the RMS error
 // at least 20x; radii, rest shape and both. Also: radius bounds hold at every
 // vertex, and the thread count does not change the result.
-#include "meshing/grid.hh"
 #include "model/design_space.hh"
 #include "solver/design_optimizer.hh"
+#include "tests/testutil/design_problems.hh"
 
 #include <gtest/gtest.h>
 
@@ -14,67 +14,9 @@
 namespace rodmesh {
 namespace {
 
-using namespace meshing;
-
-// A small hexagonal sheet clamped along its left side, with a gravity pose and
-// a pulled-and-lifted pose; targets from a hidden design.
-struct Problem {
-  Scene scene;
-  double hiddenRadiusMin = 1e9, hiddenRadiusMax = 0;
-};
-
-Problem makeProblem(bool radii, bool rest, unsigned seed) {
-  GridOptions g;
-  g.width = g.height = 0.06;
-  g.cellsX = g.cellsY = 2;
-  g.rodVertices = 5;
-  g.gravity = Vec3(0, 0, -9.81);
-  g.fixSides = {GridSide::Left};
-  g.designRadii = radii;
-  g.designRestShape = rest;
-  g.radiusMin = 0.0008;
-  g.radiusMax = 0.004;
-  Problem pr;
-  Scene s = makeGridSheet(g).scene;
-  std::vector<ClampedVertex> clamps;
-  for (const FixedVertex& f : s.poses.at(0).fixed) clamps.push_back({f.vertex});
-  const std::vector<int> right = sideVertices(s, GridSide::Right, 1e-9);
-  s.poses.clear();
-  Pose sag;
-  sag.name = "sag";
-  sag.clamped = clamps;
-  Pose lift = sag;
-  lift.name = "lift";
-  lift.forces.push_back({right.front(), Vec3(0.0, 0.02, 0.01)});
-  s.poses = {sag, lift};
-  s.gravity = Vec3(0, 0, -9.81);
-  s.effects.reset();
-
-  // Hidden design: random control values inside the bounds.
-  SceneModel model0(s);
-  const DesignSpace space(s, model0.effects());
-  ControlValues hidden = space.initialControls(s);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> U(0.0, 1.0);
-  if (radii)
-    for (int i = 0; i < hidden.radii.rows(); ++i)
-      for (int k = 0; k < 2; ++k) hidden.radii(i, k) = 0.0012 + 0.0014 * U(rng);
-  if (rest)
-    for (int i = 0; i < hidden.displacement.rows(); ++i) hidden.displacement(i, 2) = 0.003 * (U(rng) - 0.5);
-  const Design hd = space.toDesign(hidden);
-  Scene h = s;
-  h.vertices = hd.restPositions;
-  h.radii = hd.radii;
-  SceneModel hm(h);
-  const SimulationResult sim = simulateAll(hm, Design::fromScene(h), NewtonOptions{});
-  EXPECT_TRUE(sim.allConverged);
-  for (int p = 0; p < 2; ++p) s.poses[p].target = sim.poses[p].positions;
-  for (const Vec2& r : hd.radii) {
-    pr.hiddenRadiusMin = std::min(pr.hiddenRadiusMin, r.minCoeff());
-    pr.hiddenRadiusMax = std::max(pr.hiddenRadiusMax, r.maxCoeff());
-  }
-  pr.scene = s;
-  return pr;
+using testutil::HiddenDesignProblem;
+HiddenDesignProblem makeProblem(bool radii, bool rest, unsigned seed) {
+  return testutil::hiddenDesignSheet(radii, rest, seed, 2);
 }
 
 struct Case {
@@ -85,7 +27,7 @@ class DesignRecovery : public testing::TestWithParam<Case> {};
 
 TEST_P(DesignRecovery, CutsTheRmsErrorOfTheDefaultDesignTwentyfold) {
   const Case c = GetParam();
-  const Problem pr = makeProblem(c.radii, c.rest, 3);
+  const HiddenDesignProblem pr = makeProblem(c.radii, c.rest, 3);
   SceneModel model(pr.scene);
   const DesignSpace space(pr.scene, model.effects());
   DesignOptimizerOptions o;
@@ -119,7 +61,7 @@ INSTANTIATE_TEST_SUITE_P(Parameters, DesignRecovery,
                          });
 
 TEST(DesignRecovery, ThreadCountDoesNotChangeTheResult) {
-  const Problem pr = makeProblem(true, false, 5);
+  const HiddenDesignProblem pr = makeProblem(true, false, 5);
   DesignOptimizerOptions o;
   o.maxIterations = 15;
   SceneModel m1(pr.scene), m2(pr.scene);

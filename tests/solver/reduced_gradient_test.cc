@@ -6,6 +6,7 @@
 // explicit position; 3D and planar.
 #include "model/design_space.hh"
 #include "solver/design_optimizer.hh"
+#include "tests/testutil/design_problems.hh"
 #include "tests/testutil/taylor.hh"
 
 #include <gtest/gtest.h>
@@ -16,50 +17,6 @@
 namespace rodmesh {
 namespace {
 
-// Three curved rods meeting at vertex 0, one split at vertex 2 (a two-rod
-// connection), a clamp at the far end of rod 1, a pin at rest at the far end
-// of rod 2, an explicit fixed position on rod 3; two poses.
-Scene network(bool planar) {
-  Scene s;
-  s.sourcePath = "<reduced>";
-  s.material = Material{2e7, 0.45, 1100.0};
-  s.vertices.push_back(Vec3(0, 0, 0));
-  const double angles[3] = {0.1, 2.2, 4.1};
-  for (int r = 0; r < 3; ++r) {
-    const Vec3 dir(std::cos(angles[r]), std::sin(angles[r]), 0.0);
-    const Vec3 side(-dir.y(), dir.x(), 0.0);
-    const int first = static_cast<int>(s.vertices.size());
-    for (int i = 1; i <= 4; ++i)
-      s.vertices.push_back(0.01 * i * dir + 0.0008 * i * i * side + Vec3(0, 0, planar ? 0.0 : 0.0008 * i * i));
-    s.rods.push_back(Rod{{0, first, first + 1, first + 2, first + 3}, std::nullopt});
-  }
-  s.rods[0].vertices = {0, 1, 2};
-  s.rods.push_back(Rod{{2, 3, 4}, std::nullopt});
-  for (std::size_t v = 0; v < s.vertices.size(); ++v)
-    s.radii.push_back(Vec2(0.0012 + 0.0001 * (v % 4), 0.0009 + 0.0001 * (v % 3)));
-  s.gravity = planar ? Vec3(0.0, -9.81, 0.0) : Vec3(0.5, -2.0, -9.81);
-  for (int k = 0; k < 2; ++k) {
-    Pose p;
-    p.name = "p" + std::to_string(k);
-    p.weight = 1.0 + k;
-    p.clamped.push_back({8});
-    p.fixed.push_back({12, std::nullopt});
-    if (k == 1) p.fixed.push_back({4, s.vertices[4] + Vec3(0.002, 0.001, 0.0)});
-    p.forces.push_back({3, planar ? Vec3(0.002, -0.004 * (k + 1), 0.0) : Vec3(0.002, -0.004, 0.006 * (k + 1))});
-    for (std::size_t v = 0; v < s.vertices.size(); ++v)
-      p.target.push_back(s.vertices[v] + Vec3(0.001 * std::sin(3.0 * v + k), 0.001 * std::cos(2.0 * v),
-                                              planar ? 0.0 : -0.002));
-    s.poses.push_back(p);
-  }
-  s.design.present = true;
-  s.design.radii = s.design.restShape = true;
-  s.design.radiusMin = 0.0005;
-  s.design.radiusMax = 0.003;
-  s.design.hasRadiusBounds = true;
-  s.design.controlPointsPerRod = 4;
-  return s;
-}
-
 struct Case {
   bool planar;
   bool radii, rest;
@@ -69,7 +26,7 @@ class ReducedGradient : public testing::TestWithParam<Case> {};
 
 TEST_P(ReducedGradient, MatchesTaylorRemainderOfTheResolvedObjective) {
   const Case c = GetParam();
-  const Scene scene = network(c.planar);
+  const Scene scene = testutil::designNetwork(c.planar);
   SceneModel model(scene);
   ASSERT_EQ(model.effects().planar, c.planar);
   ASSERT_GT(model.network().numConnections(), 1);
@@ -107,8 +64,12 @@ TEST_P(ReducedGradient, MatchesTaylorRemainderOfTheResolvedObjective) {
   EXPECT_TAYLOR_ORDER(r, 1.85) << r.table();
   // The gradient is not dominated by a single kind of parameter: the rest
   // shape and radii parts are both non-zero when free.
-  if (c.radii) EXPECT_GT(g.head(nr).norm(), 0.0);
-  if (c.rest) EXPECT_GT(g.tail(g.size() - nr).norm(), 0.0);
+  if (c.radii) {
+    EXPECT_GT(g.head(nr).norm(), 0.0);
+  }
+  if (c.rest) {
+    EXPECT_GT(g.tail(g.size() - nr).norm(), 0.0);
+  }
 }
 
 std::string caseName(const testing::TestParamInfo<Case>& i) {

@@ -48,6 +48,34 @@ Scene clampedArc(int edges, double radius, double angle, double rt, double rn) {
   return s;
 }
 
+Scene starNetwork(const StarNetworkOptions& o) {
+  Scene s;
+  s.sourcePath = "<star network>";
+  s.material = Material{2e7, 0.45, 1100.0};
+  s.vertices.push_back(Vec3(0, 0, 0));
+  const double angles[3] = {0.1, 2.2, 4.1};
+  for (int r = 0; r < 3; ++r) {
+    const Vec3 dir(std::cos(angles[r]), std::sin(angles[r]), 0.0);
+    const Vec3 side(-dir.y(), dir.x(), 0.0);
+    Rod rod{{0}, std::nullopt};
+    for (int i = 1; i <= o.verticesPerArm; ++i) {
+      rod.vertices.push_back(static_cast<int>(s.vertices.size()));
+      s.vertices.push_back(0.01 * i * dir + 0.0008 * i * i * side + Vec3(0, 0, o.lift * i * i));
+    }
+    s.rods.push_back(rod);
+  }
+  // Split the first arm at its vertex 2.
+  Rod tail{{}, std::nullopt};
+  tail.vertices.assign(s.rods[0].vertices.begin() + 2, s.rods[0].vertices.end());
+  s.rods[0].vertices.resize(3);
+  s.rods.push_back(tail);
+  for (std::size_t v = 0; v < s.vertices.size(); ++v)
+    s.radii.push_back(Vec2(o.radiusBase.x() + o.radiusStep.x() * static_cast<double>(v % 4),
+                           o.radiusBase.y() + o.radiusStep.y() * static_cast<double>(v % 3)));
+  s.gravity = o.lift == 0.0 ? Vec3(0.0, -9.81, 0.0) : Vec3(0.5, -2.0, -9.81);
+  return s;
+}
+
 int tipVertex(const Scene& s) { return s.rods.front().vertices.back(); }
 
 }  // namespace rodmesh::testutil

@@ -1,4 +1,5 @@
-// Scene builders shared by the tests (straight and curved rods, cantilevers).
+// Scene builders shared by the tests (straight and curved rods, cantilevers,
+// a small network with connections).
 #pragma once
 
 #include "model/scene.hh"
@@ -24,6 +25,26 @@ Scene cantilever(int edges, double length, double rt, double rn, const Vec3& nor
 // radii, reference normals +z, clamped at vertex 0. One pose "pose0" with only
 // the clamp. Material as in straightRod.
 Scene clampedArc(int edges, double radius, double angle, double rt, double rn);
+
+// A small rod network with connections, for derivative and gradient tests.
+// Three curved arms leave vertex 0 (a 3-valent connection) along the
+// directions dir at angles 0.1, 2.2 and 4.1 rad in the xy plane, each with
+// `verticesPerArm` (>= 3) further vertices, numbered arm after arm: vertex i
+// of an arm lies at 0.01 i dir + 0.0008 i^2 side + lift i^2 z, side = dir
+// turned by +90 degrees in the plane. The first arm is split at its vertex 2
+// into rods {0, 1, 2} and {2, 3, ..., verticesPerArm} (a 2-valent, nearly
+// straight connection). Radii: r_t = radiusBase.x + radiusStep.x (v mod 4),
+// r_n = radiusBase.y + radiusStep.y (v mod 3). Material E = 2e7 Pa, nu = 0.45,
+// rho = 1100 kg/m^3. Gravity (0, -9.81, 0), in the plane, when lift == 0 (a
+// planar scene), else (0.5, -2, -9.81). No poses: supports, loads and
+// targets are the caller's.
+struct StarNetworkOptions {
+  int verticesPerArm = 3;
+  double lift = 0.0;  // m: out-of-plane rise, z = lift i^2; 0 = planar
+  Vec2 radiusBase = Vec2(0.0012, 0.0008);
+  Vec2 radiusStep = Vec2(0.0002, 0.0001);
+};
+Scene starNetwork(const StarNetworkOptions& options);
 
 // Index of the last vertex of the first rod (the free tip of the builders above).
 int tipVertex(const Scene& s);

@@ -1,0 +1,46 @@
+// Simultaneous analysis and design (SAND) with Ipopt: every pose's
+// equilibrium is an equality constraint of one nonlinear program whose
+// variables are the unknowns of all poses and the design values of the
+// current schedule phase (nlp/sand_nlp.hh). Exact Jacobians and exact
+// Hessians of the Lagrangian; MUMPS solves Ipopt's linear systems.
+//
+// This header does not include Ipopt; nothing outside nlp/ does.
+//
+// A run: equilibria of the initial design by Newton (the starting point),
+// then one Ipopt solve per schedule phase (the same schedule as the reduced
+// method, solver/design_optimizer.hh), each started from the previous phase's
+// design and equilibria. After every phase the poses are re-solved by Newton
+// from Ipopt's positions under Ipopt's design; the phase's design is kept only
+// if those equilibria exist and the objective did not rise, so the result is
+// always the best design found, with true equilibria.
+#pragma once
+
+#include "solver/design_optimizer.hh"
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace rodmesh {
+
+struct SandOptions {
+  DesignOptimizerOptions optimizer;  // iterations, time limit, tolerance, schedule, threads, Newton, stop
+  // Ipopt options applied after the defaults and after ipopt.opt (if any in
+  // the working directory), in this order; checked by checkIpoptOption.
+  std::vector<std::pair<std::string, std::string>> ipopt;
+  bool readOptionsFile = true;  // read ./ipopt.opt when present
+};
+
+// Empty if Ipopt has an option `key` and `value` is valid for it (type and
+// range); otherwise a one-line reason naming both.
+std::string checkIpoptOption(const std::string& key, const std::string& value);
+
+// Whether ./ipopt.opt exists (Ipopt reads it; its options override the defaults).
+bool ipoptOptionsFilePresent();
+// Empty if ./ipopt.opt is absent or Ipopt accepts it; otherwise why not.
+std::string checkIpoptOptionsFile();
+
+DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, const SandOptions& options,
+                                   const DesignProgress& progress = {});
+
+}  // namespace rodmesh

@@ -1,0 +1,512 @@
+// The Ipopt side of SAND: a TNLP adapter over SandNlp and the schedule
+// driver. This is the only translation unit that includes Ipopt.
+#include "nlp/sand.hh"
+
+#include "nlp/sand_nlp.hh"
+#include "solver/newton.hh"
+#include "solver/parallel.hh"
+
+#include "IpIpoptApplication.hpp"
+#include "IpTNLP.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+namespace rodmesh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+using Ipopt::Index;
+using Ipopt::Number;
+
+// What stopped a phase from inside the iteration callback.
+enum class StopReason { None, TimeLimit, Interrupted };
+
+class SandTnlp : public Ipopt::TNLP {
+ public:
+  struct Hooks {
+    std::function<void(int iter, const double* x, double infDu, double alphaPr)> progress;
+    std::function<StopReason()> stop;
+  };
+
+  SandTnlp(SandNlp& nlp, Hooks hooks) : nlp_(nlp), hooks_(std::move(hooks)) {}
+
+  bool get_nlp_info(Index& n, Index& m, Index& nnzJac, Index& nnzHess, IndexStyleEnum& style) override {
+    n = nlp_.numVariables();
+    m = nlp_.numConstraints();
+    nnzJac = nlp_.jacobianNonZeros();
+    nnzHess = nlp_.hessianNonZeros();
+    style = C_STYLE;
+    return true;
+  }
+
+  bool get_bounds_info(Index n, Number* xl, Number* xu, Index m, Number* gl, Number* gu) override {
+    nlp_.bounds(xl, xu);
+    for (Index i = 0; i < n; ++i) {
+      if (std::isinf(xl[i])) xl[i] = -1e20;
+      if (std::isinf(xu[i])) xu[i] = 1e20;
+    }
+    std::fill(gl, gl + m, 0.0);
+    std::fill(gu, gu + m, 0.0);
+    return true;
+  }
+
+  bool get_starting_point(Index n, bool initX, Number* x, bool initZ, Number*, Number*, Index, bool initLambda,
+                          Number*) override {
+    if (initZ || initLambda) return false;  // multipliers: Ipopt's least-squares estimate
+    if (initX) {
+      const Eigen::VectorXd x0 = nlp_.startingPoint();
+      std::copy(x0.data(), x0.data() + n, x);
+    }
+    return true;
+  }
+
+  bool eval_f(Index, const Number* x, bool, Number& f) override { return nlp_.objective(x, f); }
+  bool eval_grad_f(Index, const Number* x, bool, Number* g) override { return nlp_.gradient(x, g); }
+  bool eval_g(Index, const Number* x, bool, Index, Number* g) override { return nlp_.constraints(x, g); }
+
+  bool eval_jac_g(Index n, const Number* x, bool, Index, Index nele, Index* iRow, Index* jCol,
+                  Number* values) override {
+    if (!values) {
+      std::copy(nlp_.jacobianRows().begin(), nlp_.jacobianRows().end(), iRow);
+      std::copy(nlp_.jacobianCols().begin(), nlp_.jacobianCols().end(), jCol);
+      return true;
+    }
+    // Ipopt evaluates the Jacobian at each new iterate: remember it for progress.
+    current_.assign(x, x + n);
+    return nlp_.jacobian(x, values);
+  }
+
+  bool eval_h(Index, const Number* x, bool, Number sigma, Index, const Number* lambda, bool, Index, Index* iRow,
+              Index* jCol, Number* values) override {
+    if (!values) {
+      std::copy(nlp_.hessianRows().begin(), nlp_.hessianRows().end(), iRow);
+      std::copy(nlp_.hessianCols().begin(), nlp_.hessianCols().end(), jCol);
+      return true;
+    }
+    return nlp_.hessian(x, sigma, lambda, values);
+  }
+
+  void finalize_solution(Ipopt::SolverReturn status, Index n, const Number* x, const Number*, const Number*, Index,
+                         const Number*, const Number*, Number, const Ipopt::IpoptData*,
+                         Ipopt::IpoptCalculatedQuantities*) override {
+    status_ = status;
+    if (x) final_.assign(x, x + n);
+  }
+
+  bool intermediate_callback(Ipopt::AlgorithmMode, Index iter, Number, Number, Number infDu, Number, Number, Number,
+                             Number, Number alphaPr, Index, const Ipopt::IpoptData*,
+                             Ipopt::IpoptCalculatedQuantities*) override {
+    iterations_ = iter;
+    try {
+      if (hooks_.progress && !current_.empty()) hooks_.progress(iter, current_.data(), infDu, alphaPr);
+      if (hooks_.stop) {
+        stopReason_ = hooks_.stop();
+        if (stopReason_ != StopReason::None) return false;
+      }
+    } catch (...) {
+      return false;
+    }
+    return true;
+  }
+
+  Ipopt::SolverReturn status() const { return status_; }
+  const std::vector<double>& finalPoint() const { return final_; }
+  int iterations() const { return iterations_; }
+  StopReason stopReason() const { return stopReason_; }
+
+ private:
+  SandNlp& nlp_;
+  Hooks hooks_;
+  std::vector<double> current_, final_;
+  Ipopt::SolverReturn status_ = Ipopt::UNASSIGNED;
+  int iterations_ = 0;
+  StopReason stopReason_ = StopReason::None;
+};
+
+const char* solverReturnName(Ipopt::SolverReturn s) {
+  switch (s) {
+    case Ipopt::SUCCESS: return "optimal solution found";
+    case Ipopt::MAXITER_EXCEEDED: return "maximum iterations exceeded";
+    case Ipopt::CPUTIME_EXCEEDED: return "CPU time limit exceeded";
+    case Ipopt::STOP_AT_TINY_STEP: return "search direction became too small";
+    case Ipopt::STOP_AT_ACCEPTABLE_POINT: return "solved to an acceptable level";
+    case Ipopt::LOCAL_INFEASIBILITY: return "converged to a point of local infeasibility";
+    case Ipopt::USER_REQUESTED_STOP: return "stopped on request";
+    case Ipopt::FEASIBLE_POINT_FOUND: return "feasible point found";
+    case Ipopt::DIVERGING_ITERATES: return "iterates diverging";
+    case Ipopt::RESTORATION_FAILURE: return "restoration phase failed";
+    case Ipopt::ERROR_IN_STEP_COMPUTATION: return "error in step computation";
+    case Ipopt::INVALID_NUMBER_DETECTED: return "invalid number in a function or derivative";
+    case Ipopt::TOO_FEW_DEGREES_OF_FREEDOM: return "too few degrees of freedom";
+    case Ipopt::INVALID_OPTION: return "invalid option";
+    case Ipopt::OUT_OF_MEMORY: return "out of memory";
+    case Ipopt::INTERNAL_ERROR: return "internal error";
+    case Ipopt::UNASSIGNED: return "did not run";
+  }
+  return "unknown status";
+}
+
+const char* applicationStatusName(Ipopt::ApplicationReturnStatus s) {
+  switch (s) {
+    case Ipopt::Invalid_Option: return "invalid option";
+    case Ipopt::Not_Enough_Degrees_Of_Freedom: return "too few degrees of freedom";
+    case Ipopt::Invalid_Problem_Definition: return "invalid problem definition";
+    case Ipopt::Unrecoverable_Exception: return "unrecoverable exception";
+    case Ipopt::NonIpopt_Exception_Thrown: return "exception in a callback";
+    case Ipopt::Insufficient_Memory: return "insufficient memory";
+    case Ipopt::Internal_Error: return "internal error";
+    default: return "did not run";
+  }
+}
+
+// Sets a user option with the type Ipopt registered for it.
+std::string setOption(Ipopt::IpoptApplication& app, const std::string& key, const std::string& value) {
+  Ipopt::SmartPtr<const Ipopt::RegisteredOption> opt = app.RegOptions()->GetOption(key);
+  if (!Ipopt::IsValid(opt)) return "Ipopt has no option '" + key + "'";
+  const char* s = value.c_str();
+  char* end = nullptr;
+  switch (opt->Type()) {
+    case Ipopt::OT_Number: {
+      const double v = std::strtod(s, &end);
+      if (value.empty() || *end != '\0' || !std::isfinite(v))
+        return "Ipopt option '" + key + "' takes a number, got '" + value + "'";
+      if (!opt->IsValidNumberSetting(v)) return "Ipopt option '" + key + "': value " + value + " is out of range";
+      app.Options()->SetNumericValue(key, v);
+      return "";
+    }
+    case Ipopt::OT_Integer: {
+      const long v = std::strtol(s, &end, 10);
+      if (value.empty() || *end != '\0' || v < -2147483647L || v > 2147483647L)
+        return "Ipopt option '" + key + "' takes an integer, got '" + value + "'";
+      if (!opt->IsValidIntegerSetting(static_cast<Index>(v)))
+        return "Ipopt option '" + key + "': value " + value + " is out of range";
+      app.Options()->SetIntegerValue(key, static_cast<Index>(v));
+      return "";
+    }
+    case Ipopt::OT_String: {
+      if (!opt->IsValidStringSetting(value))
+        return "Ipopt option '" + key + "': '" + value + "' is not one of its settings";
+      app.Options()->SetStringValue(key, value);
+      return "";
+    }
+    default:
+      return "Ipopt option '" + key + "' has an unknown type";
+  }
+}
+
+// Equilibria of a design from the given states (Newton, warm started with the
+// states' charts; restarted from rest if that fails). False if a pose fails.
+bool solvePoses(SceneModel& model, const Design& d, std::vector<PoseState>& states, const NewtonOptions& newton,
+                int threads) {
+  const int K = model.numPoses();
+  std::vector<char> ok(K, 0);
+  forEachPose(K, threads, [&](int k) {
+    try {
+      const NewtonReport r = solveEquilibrium(model.pose(k), d, states[k], newton);
+      ok[k] = r.converged && states[k].loadFactor == 1.0;
+    } catch (...) {
+      ok[k] = 0;
+    }
+  });
+  return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+}
+
+double sumSquared(SceneModel& model, const TargetObjective& objective, const Design& d,
+                  const std::vector<PoseState>& states, double& f) {
+  double ss = 0.0;
+  f = 0.0;
+  for (int k = 0; k < model.numPoses(); ++k) {
+    double s = 0.0;
+    model.pose(k).setState(states[k]);
+    f += objective.pose(model.pose(k), states[k].u, d, nullptr, nullptr, &s);
+    ss += s;
+  }
+  return ss;
+}
+
+}  // namespace
+
+std::string checkIpoptOption(const std::string& key, const std::string& value) {
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  return setOption(*app, key, value);
+}
+
+bool ipoptOptionsFilePresent() { return std::ifstream("ipopt.opt").good(); }
+
+std::string checkIpoptOptionsFile() {
+  if (!ipoptOptionsFilePresent()) return "";
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  app->Options()->SetIntegerValue("print_level", 0);
+  app->Options()->SetStringValue("sb", "yes");
+  if (app->Initialize() != Ipopt::Solve_Succeeded)
+    return "./ipopt.opt: Ipopt rejects this options file (an unknown option or an invalid value)";
+  return "";
+}
+
+DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, const SandOptions& so,
+                                   const DesignProgress& progress) {
+  const auto t0 = Clock::now();
+  const DesignOptimizerOptions& opt = so.optimizer;
+  const Scene& scene = model.scene();
+  const TargetObjective objective(scene, model.effects());
+  const int K = model.numPoses();
+  DesignOptimizerResult res;
+  res.controls = space.initialControls(scene);
+  const Design d0 = space.toDesign(res.controls);
+  auto finish = [&](Outcome o, const std::string& message) {
+    res.status = {o, message};
+    res.timeSeconds = since(t0);
+    res.solverSeconds = std::max(0.0, res.timeSeconds - res.evaluationSeconds);
+    res.peakMemoryBytes = peakResidentMemory();
+    return res;
+  };
+
+  // Starting point: the equilibria of the initial design.
+  std::vector<PoseState> states(K);
+  for (int k = 0; k < K; ++k) states[k] = model.pose(k).restState(d0);
+  {
+    const auto te = Clock::now();
+    const bool ok = solvePoses(model, d0, states, opt.newton, opt.threads);
+    res.evaluationSeconds += since(te);
+    if (!ok) {
+      res.design = d0;
+      return finish(Outcome::NumericalFailure,
+                    "no equilibrium under the initial design: the poses cannot be solved as given");
+    }
+  }
+  double f0 = 0.0;
+  const double ss0 = sumSquared(model, objective, d0, states, f0);
+  res.initialObjective = res.objective = f0;
+  res.initialRms = res.rms = objective.rms(ss0);
+  for (int k = 0; k < K; ++k) res.initialPositions.push_back(model.pose(k).positions(states[k].u, d0));
+  res.design = d0;
+  res.states = states;
+  {
+    DesignIterate it;
+    it.phase = "initial";
+    it.objective = f0;
+    it.rms = res.rms;
+    it.elapsed = since(t0);
+    it.evaluations = 1;
+    res.history.push_back(it);
+    if (progress) progress(it);
+  }
+  if (!(f0 > 0)) return finish(Outcome::Converged, "the initial design meets every target");
+
+  // Scaling: objective relative to the initial design's, constraints
+  // relative to each pose's load (newtons).
+  SandScaling scaling;
+  scaling.objective = f0;
+  double minLoad = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < K; ++k) {
+    PoseSystem& sys = model.pose(k);
+    sys.setLoadFactor(1.0);
+    const double L = loadScale(sys, d0);
+    scaling.load.push_back(std::isfinite(L) && L > 0 ? L : 1.0);
+    minLoad = std::min(minLoad, scaling.load.back());
+  }
+
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  Ipopt::OptionsList& o = *app->Options();
+  o.SetStringValue("sb", "yes");
+  o.SetIntegerValue("print_level", 0);
+  o.SetStringValue("linear_solver", "mumps");
+  o.SetStringValue("hessian_approximation", "exact");
+  o.SetStringValue("mu_strategy", "adaptive");
+  o.SetNumericValue("tol", opt.tolerance);
+  o.SetNumericValue("dual_inf_tol", opt.tolerance);
+  o.SetNumericValue("constr_viol_tol", std::max(1e-12, 10.0 * opt.newton.tolerance));
+  o.SetNumericValue("acceptable_tol", std::min(1e-2, 1e3 * opt.tolerance));
+  o.SetNumericValue("acceptable_constr_viol_tol", 1e-6);
+  // User options before Initialize (journals such as output_file are opened
+  // there) and again after it, so that they override ./ipopt.opt.
+  for (const auto& [key, value] : so.ipopt)
+    if (std::string why = setOption(*app, key, value); !why.empty()) return finish(Outcome::InvalidProblem, why);
+  const Ipopt::ApplicationReturnStatus init = so.readOptionsFile ? app->Initialize() : app->Initialize("");
+  if (init != Ipopt::Solve_Succeeded)
+    return finish(Outcome::InvalidProblem,
+                  std::string("Ipopt could not be initialised (") + applicationStatusName(init) +
+                      (ipoptOptionsFilePresent() ? "; check ./ipopt.opt)" : ")"));
+  for (const auto& [key, value] : so.ipopt)
+    if (std::string why = setOption(*app, key, value); !why.empty()) return finish(Outcome::InvalidProblem, why);
+
+  std::set<std::string> userSet;
+  for (const auto& kv : so.ipopt) userSet.insert(kv.first);
+  const std::vector<DesignStep> steps = designSchedule(scene, space, opt);
+  Outcome stop = Outcome::Converged;
+  std::string message = "schedule completed";
+  int iterations = 0;
+  double roundStart = res.objective;
+  std::vector<PoseState> rawStates = states;  // Ipopt's own equilibria of the kept design
+
+  for (std::size_t ph = 0; ph < steps.size(); ++ph) {
+    const DesignPhase& phase = steps[ph].phase;
+    const int round = steps[ph].round;
+    if (round > 0 && phase.restShape) roundStart = res.objective;
+    const int remaining = opt.maxIterations - iterations;
+    if (remaining <= 0) {
+      stop = Outcome::MaxIterations;
+      message = "iteration limit reached";
+      break;
+    }
+    if (opt.timeLimit > 0 && since(t0) >= opt.timeLimit) {
+      stop = Outcome::TimeLimit;
+      message = "time limit reached";
+      break;
+    }
+    if (space.numFree(phase) == 0) continue;
+    // Charts at the current equilibria: edges keep far from their chart's
+    // singular direction while Ipopt moves them.
+    for (int k = 0; k < K; ++k) {
+      PoseSystem& sys = model.pose(k);
+      sys.setState(states[k]);
+      sys.reanchorCharts(states[k].u, res.design, 0.5);
+      states[k].charts = sys.charts();
+    }
+    scaling.variable = designVariableScale(space, phase, scene);
+    {
+      // Radii are scaled by their own current value (within the bounds), so
+      // that thin and thick rods (up to the bounds' ratio) take comparable
+      // relative steps.
+      Eigen::VectorXd lo, hi;
+      space.bounds(phase, lo, hi);
+      const Eigen::VectorXd z = space.pack(phase, res.controls);
+      for (int i = 0; i < z.size(); ++i)
+        if (std::isfinite(lo[i]) && std::isfinite(hi[i]) && lo[i] > 0)
+          scaling.variable[i] = std::clamp(z[i], lo[i], hi[i]);
+    }
+    // Objective relative to the phase's start (its scaled value starts at 1,
+    // so the barrier parameter means the same in every phase); later phases
+    // start at a converged design, so the barrier starts small instead of
+    // pushing every design value away from its bounds first.
+    scaling.objective = std::max(res.objective, 1e-300);
+    if (ph > 0 && !userSet.count("mu_init")) o.SetNumericValue("mu_init", 1e-4);
+    SandNlp nlp(model, space, objective, phase, res.controls, states, scaling, opt.threads);
+    const int base = iterations;
+    std::pair<double, std::vector<double>> bestIterate{std::numeric_limits<double>::infinity(), {}};
+    SandTnlp::Hooks hooks;
+    hooks.progress = [&](int iter, const double* x, double infDu, double alphaPr) {
+      if (iter == 0 && base > 0) return;  // a phase starts where the previous one ended
+      DesignIterate it;
+      it.iteration = base + iter;
+      it.level = phase.level;
+      it.phase = phaseName(phase);
+      double f = 0.0;
+      nlp.objective(x, f);
+      it.objective = f * scaling.objective;
+      it.rms = nlp.rms(x);
+      it.constraintViolation = nlp.forceViolation(x);
+      it.dualInfeasibility = infDu;
+      it.gradientNorm = infDu;
+      it.step = alphaPr;
+      it.elapsed = since(t0);
+      it.evaluations = nlp.evaluations();
+      res.history.push_back(it);
+      if (progress) progress(it);
+      // The best nearly feasible iterate, a fallback when the final one is
+      // not usable (a limit stopped Ipopt mid-way).
+      if (it.constraintViolation <= 1e-3 * minLoad && it.objective < bestIterate.first) {
+        bestIterate.first = it.objective;
+        bestIterate.second.assign(x, x + nlp.numVariables());
+      }
+    };
+    hooks.stop = [&] {
+      if (opt.stopRequested && opt.stopRequested()) return StopReason::Interrupted;
+      if (opt.timeLimit > 0 && since(t0) >= opt.timeLimit) return StopReason::TimeLimit;
+      return StopReason::None;
+    };
+    Ipopt::SmartPtr<SandTnlp> tnlp = new SandTnlp(nlp, hooks);
+    o.SetIntegerValue("max_iter", remaining);
+    const Ipopt::ApplicationReturnStatus st = app->OptimizeTNLP(Ipopt::GetRawPtr(tnlp));
+    iterations += std::max(1, tnlp->iterations());
+    res.evaluations += nlp.evaluations();
+    res.evaluationSeconds += nlp.evaluationSeconds();
+
+    // Keep the phase's design if its equilibria exist (Newton from Ipopt's
+    // positions) and the objective did not rise.
+    bool kept = false;
+    std::vector<std::vector<double>> candidates;
+    if (tnlp->finalPoint().size() == static_cast<std::size_t>(nlp.numVariables()))
+      candidates.push_back(tnlp->finalPoint());
+    if (!bestIterate.second.empty()) candidates.push_back(bestIterate.second);
+    for (const std::vector<double>& point : candidates) {
+      if (kept) break;
+      const double* x = point.data();
+      const ControlValues cand = nlp.controls(x);
+      const Design d = space.toDesign(cand);
+      const std::vector<PoseState> raw = nlp.states(x);
+      std::vector<PoseState> polished = raw;
+      const auto te = Clock::now();
+      const bool ok = solvePoses(model, d, polished, opt.newton, opt.threads);
+      res.evaluationSeconds += since(te);
+      if (ok) {
+        double f = 0.0;
+        const double ss = sumSquared(model, objective, d, polished, f);
+        if (std::isfinite(f) && f <= res.objective) {
+          res.controls = cand;
+          res.design = d;
+          res.objective = f;
+          res.rms = objective.rms(ss);
+          states = polished;
+          rawStates = raw;
+          kept = true;
+        }
+      }
+    }
+    const Ipopt::SolverReturn sr = tnlp->status();
+    if (tnlp->stopReason() != StopReason::None) {
+      stop = tnlp->stopReason() == StopReason::Interrupted ? Outcome::Interrupted : Outcome::TimeLimit;
+      message = stop == Outcome::Interrupted ? "interrupted" : "time limit reached";
+      break;
+    }
+    const bool solved = sr == Ipopt::SUCCESS || sr == Ipopt::STOP_AT_ACCEPTABLE_POINT;
+    if (sr == Ipopt::MAXITER_EXCEEDED) {
+      stop = Outcome::MaxIterations;
+      message = "iteration limit reached";
+      break;
+    }
+    if (!solved) {
+      std::ostringstream m;
+      m << "Ipopt, " << phaseName(phase) << " at level " << phase.level << ": "
+        << (sr == Ipopt::UNASSIGNED ? applicationStatusName(st) : solverReturnName(sr))
+        << (kept ? "" : "; the phase's design was not kept");
+      stop = sr == Ipopt::STOP_AT_TINY_STEP ? Outcome::Stalled : Outcome::NumericalFailure;
+      message = m.str();
+      // A failed phase with a usable best design so far is not a failed run.
+      if (stop == Outcome::NumericalFailure && res.objective < res.initialObjective) stop = Outcome::Stalled;
+      break;
+    }
+    // A solved phase that found nothing better leaves the best design as it
+    // was; the schedule goes on.
+    if (res.objective <= 1e-20 * res.initialObjective) {
+      message = "every target met to round-off";
+      break;
+    }
+    // The rounds end when one (rest shape, then radii) lowers the objective
+    // by less than roundRelativeDecrease.
+    if (round > 0 && phase.radii) {
+      const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
+      if (gain < opt.roundRelativeDecrease) {
+        std::ostringstream m;
+        m << "a rest-shape/radii round lowered the objective by less than " << opt.roundRelativeDecrease * 100.0
+          << "%";
+        message = m.str();
+        break;
+      }
+    }
+  }
+  res.iterations = iterations;
+  res.states = rawStates;
+  return finish(stop, message);
+}
+
+}  // namespace rodmesh

@@ -1,0 +1,40 @@
+#include "tests/testutil/design_problems.hh"
+
+#include "tests/testutil/scenes.hh"
+
+#include <cmath>
+#include <string>
+
+namespace rodmesh::testutil {
+
+Scene designNetwork(bool planar) {
+  testutil::StarNetworkOptions o;
+  o.verticesPerArm = 4;
+  o.lift = planar ? 0.0 : 0.0008;
+  o.radiusBase = Vec2(0.0012, 0.0009);
+  o.radiusStep = Vec2(0.0001, 0.0001);
+  Scene s = testutil::starNetwork(o);
+  s.sourcePath = "<design-network>";
+  for (int k = 0; k < 2; ++k) {
+    Pose p;
+    p.name = "p" + std::to_string(k);
+    p.weight = 1.0 + k;
+    p.clamped.push_back({8});
+    p.fixed.push_back({12, std::nullopt});
+    if (k == 1) p.fixed.push_back({4, s.vertices[4] + Vec3(0.002, 0.001, 0.0)});
+    p.forces.push_back({3, planar ? Vec3(0.002, -0.004 * (k + 1), 0.0) : Vec3(0.002, -0.004, 0.006 * (k + 1))});
+    for (std::size_t v = 0; v < s.vertices.size(); ++v)
+      p.target.push_back(s.vertices[v] + Vec3(0.001 * std::sin(3.0 * v + k), 0.001 * std::cos(2.0 * v),
+                                              planar ? 0.0 : -0.002));
+    s.poses.push_back(p);
+  }
+  s.design.present = true;
+  s.design.radii = s.design.restShape = true;
+  s.design.radiusMin = 0.0005;
+  s.design.radiusMax = 0.003;
+  s.design.hasRadiusBounds = true;
+  s.design.controlPointsPerRod = 4;
+  return s;
+}
+
+}  // namespace rodmesh::testutil
