@@ -5,9 +5,10 @@
 # clang.
 #
 # The translation units that instantiate the AD kernels (rodmesh_ad_sources)
-# are compiled at -O1 there: under the sanitizers, inlining the kernels at -O2
-# multiplies their compile time (about 25 CPU-minutes per translation unit
-# before they were split), while -O1 keeps every check.
+# are compiled at -O1 whatever the build type: under the sanitizers, inlining
+# the kernels at -O2 multiplies their compile time (about 25 CPU-minutes per
+# translation unit before they were split), while -O1 keeps every check.
+# scripts/test-sanitizers.sh builds everything at -O1.
 option(RODMESH_SANITIZE "Build with AddressSanitizer and UndefinedBehaviorSanitizer (scripts/test-sanitizers.sh)" OFF)
 if(RODMESH_SANITIZE)
   if(RODMESH_FUZZ)
