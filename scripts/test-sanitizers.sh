@@ -36,7 +36,7 @@ cmake -S . -B "$build" -DRODMESH_SANITIZE=ON -DRODMESH_NATIVE=OFF -DCMAKE_BUILD_
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1" >/dev/null
 
 # The executables the subset runs (no benchmarks, no hard-case suite).
-subset_targets=(rodmesh rodmesh_tests rodmesh_cli_tests)
+subset_targets=(rodmesh_tests rodmesh rodmesh_cli_tests)
 for t in meshing_tests rodmesh_nlp_tests; do
   if cmake --build "$build" --target help | grep -q "^\.\.\. $t\$"; then subset_targets+=("$t"); fi
 done
