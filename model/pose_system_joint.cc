@@ -2,8 +2,8 @@
 // sparsity patterns, their directional derivatives (third derivatives), and
 // the first-order product (dF/dp)^T lambda for adjoint gradients: patterns
 // and entry points. The evaluations themselves (runJoint, runProduct) are
-// instantiated in pose_system_joint_values*.cc, pose_system_joint_directional*.cc
-// and pose_system_product*.cc (model/pose_system_impl.hh).
+// instantiated in pose_system_joint_values.cc, pose_system_joint_directional*.cc
+// and pose_system_product.cc (model/pose_system_impl.hh).
 #include "model/pose_system.hh"
 
 #include "model/pose_system_detail.hh"

@@ -1,6 +1,0 @@
-// First-order design product (dF/dp)^T lambda (PoseSystem::runProduct),
-// explicitly instantiated for the 3D layouts (see model/pose_system_impl.hh).
-#include "model/pose_system_impl.hh"
-
-RODMESH_INSTANTIATE_PRODUCT(3, true)
-RODMESH_INSTANTIATE_PRODUCT(3, false)

@@ -1,6 +1,0 @@
-// Simulation energy, gradient and Hessian (PoseSystem::runSim), explicitly
-// instantiated for the planar layouts (see model/pose_system_impl.hh).
-#include "model/pose_system_impl.hh"
-
-RODMESH_INSTANTIATE_SIM(2, true)
-RODMESH_INSTANTIATE_SIM(2, false)
