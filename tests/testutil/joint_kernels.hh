@@ -117,42 +117,4 @@ void expectSame(const Kern& kern, const LocalStencil& ls, Rng& rng, const std::s
   EXPECT_TRUE(sameResult(ref, got, kTol)) << what << (std::is_same_v<T, Dual> ? " (with direction)" : "");
 }
 
-// A connection of valence K with random edges, radii and twists against the
-// reference (tests/model/joint_connection_kernel*_test.cc); withDirection:
-// also the directional (T = Dual) evaluation.
-template <int D, bool TW, int K, bool withDirection = true>
-void checkConnection(unsigned seed) {
-  Rng rng(seed);
-  const Mat32 B = planeBasis();
-  ConnectionK<D, TW, K> kern;
-  kern.k.youngModulus = 2e7;
-  kern.k.shearModulus = 7e6;
-  kern.k.bend = true;
-  kern.k.twist = TW;
-  kern.B = &B;
-  LocalStencil ls;
-  EdgeSample e[K];
-  for (int i = 0; i < K; ++i) {
-    e[i] = sampleEdge(rng, 2.0 * 3.14159265358979 * i / K + 0.2 * rng(), D);
-    kern.k.n[i] = e[i].normal;
-    kern.k.chartT[i] = e[i].chartT;
-    kern.k.chartD[i] = e[i].chartD;
-    kern.off[i] = Vec3::Zero();
-    putEdge(ls, e[i].current, D);
-  }
-  if (TW)
-    for (int i = 0; i < K; ++i) ls.xv[ls.nx++] = 0.4 * rng();
-  for (int i = 0; i < K; ++i)
-    for (int c = 0; c < 3; ++c) ls.pv[ls.np++] = e[i].rest[c];
-  for (int v = 0; v <= K; ++v) {
-    ls.pv[ls.np++] = 0.0012 * (1.0 + 0.3 * rng());
-    ls.pv[ls.np++] = 0.0008 * (1.0 + 0.3 * rng());
-  }
-  constexpr int N = KernelSize<ConnectionK<D, TW, K>>::nx + KernelSize<ConnectionK<D, TW, K>>::np;
-  ASSERT_EQ(ls.nx + ls.np, N);
-  const std::string what = "connection K=" + std::to_string(K) + " D=" + std::to_string(D) + (TW ? " twist" : "");
-  expectSame<double, N>(kern, ls, rng, what);
-  if constexpr (withDirection) expectSame<Dual, N>(kern, ls, rng, what);
-}
-
 }  // namespace rodmesh::detail::testing_joint
