@@ -60,8 +60,10 @@ fi
 # allocator_may_return_null: an allocation too large for the sanitizer's
 # allocator fails as it would without the sanitizers (std::bad_alloc; the
 # archive reader must answer corrupted sizes with a message).
-# LeakSanitizer runs at exit; scripts/lsan-suppressions.txt names leaks
-# inside the HDF5 library itself (docs/fuzzing.md, "The HDF5 library").
+# LeakSanitizer runs at exit; scripts/lsan-suppressions.txt is for leaks
+# inside the HDF5 library itself (docs/fuzzing.md, "The HDF5 library"); none
+# so far. Run this in the foreground (docs/testing.md: background jobs
+# ignore SIGINT, and the interrupt tests fail then).
 export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:allocator_may_return_null=1:check_initialization_order=1:strict_init_order=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 export LSAN_OPTIONS="suppressions=$PWD/scripts/lsan-suppressions.txt:print_suppressions=0"
