@@ -37,8 +37,11 @@ cmake -S . -B "$build" -DRODMESH_SANITIZE=ON -DRODMESH_NATIVE=OFF -DCMAKE_BUILD_
 
 # The executables the subset runs (no benchmarks, no hard-case suite).
 subset_targets=(rodmesh_tests rodmesh rodmesh_cli_tests)
+# (The list is read first: grep -q would end the pipe early, and pipefail
+# would then count the target as missing.)
+targets_help="$(cmake --build "$build" --target help)"
 for t in meshing_tests rodmesh_nlp_tests; do
-  if cmake --build "$build" --target help | grep -q "^\.\.\. $t\$"; then subset_targets+=("$t"); fi
+  if grep -q "^\.\.\. $t\$" <<<"$targets_help"; then subset_targets+=("$t"); fi
 done
 # Test names (GoogleTest suites) of the subset.
 subset='^('
@@ -62,8 +65,7 @@ fi
 # archive reader must answer corrupted sizes with a message).
 # LeakSanitizer runs at exit; scripts/lsan-suppressions.txt is for leaks
 # inside the HDF5 library itself (docs/fuzzing.md, "The HDF5 library"); none
-# so far. Run this in the foreground (docs/testing.md: background jobs
-# ignore SIGINT, and the interrupt tests fail then).
+# so far.
 export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:allocator_may_return_null=1:check_initialization_order=1:strict_init_order=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 export LSAN_OPTIONS="suppressions=$PWD/scripts/lsan-suppressions.txt:print_suppressions=0"
