@@ -283,90 +283,9 @@ void PoseSystem::buildPattern() {
   }
 }
 
-// Gravity and point forces are linear in the positions: they add to the
-// gradient only (no Hessian) in simulation.
-template <int D, bool TW, class Out>
-void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const {
-  const std::vector<Vec3> x = positions(u, d);
-  const Eigen::VectorXd theta = twists(u);
-  const Mat32 B = fx_.planeBasis;
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, nullptr};
-  double* hv = out.hessian ? out.hessian->valuePtr() : nullptr;
-  auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
-    using K = std::decay_t<decltype(kern)>;
-    constexpr int NX = KernelSize<K>::nx;
-    if (!out.gradient && !hv) {
-      double xs[kMaxLocal], ps[kMaxLocal];
-      std::copy(ls.xv, ls.xv + ls.nx, xs);
-      std::copy(ls.pv, ls.pv + ls.np, ps);
-      out.energy += kern(xs, ps);
-      return;
-    }
-    if (!hv) {
-      // Forces only: first-order AD.
-      using G = ad::Grad<NX, double>;
-      G x[NX];
-      for (int i = 0; i < ls.nx; ++i) x[i] = G::variable(ls.xv[i], i);
-      const G r = kern(x, ls.pv);
-      out.energy += r.v;
-      for (int k = 0; k < ls.nx; ++k)
-        for (int a = 0; a < 2; ++a) {
-          const int pos = ls.xmap[k].idx[a];
-          if (pos < 0) continue;
-          const int I = ls.sdofs[pos];
-          if (I >= 0) (*out.gradient)[I] += ls.xmap[k].coef[a] * r.g[k];
-        }
-      return;
-    }
-    const ad::Hess<NX, double> r = evalLocal<NX, double, false>(kern, ls, nullptr);
-    out.energy += r.v;
-    scatterSim<NX>(r, ls, stencilSlots_.data() + stencils_[sidx].offset, out.gradient, hv);
-  };
-  forEachStencil<D, TW, false>(ctx, visit);
-
-  // External loads: gravity (lumped edge masses) and point forces, scaled by
-  // the load factor.
-  const auto& edges = net_.edges();
-  auto addLoad = [&](int v, const Vec3& f) {
-    out.energy -= f.dot(x[v]);
-    const int k = vertexDof_[v];
-    if (k < 0 || !out.gradient) return;
-    if constexpr (D == 3) out.gradient->template segment<3>(k) -= f;
-    else out.gradient->template segment<2>(k) -= B.transpose() * f;
-  };
-  if (fx_.has(Effect::Gravity) && use(Terms::Gravity)) {
-    const Vec3 g = loadFactor_ * *scene_.gravity;
-    const double rho = scene_.material.density;
-    for (const Edge& e : edges) {
-      const double L = (d.restPositions[e.b] - d.restPositions[e.a]).norm();
-      const double m = 0.5 * L *
-                       (stiffness::massPerLength(rho, d.radii[e.a][0], d.radii[e.a][1]) +
-                        stiffness::massPerLength(rho, d.radii[e.b][0], d.radii[e.b][1]));
-      addLoad(e.a, 0.5 * m * g);
-      addLoad(e.b, 0.5 * m * g);
-    }
-  }
-  if (use(Terms::Forces)) {
-    for (std::size_t v = 0; v < pointForce_.size(); ++v)
-      if (pointForce_[v].squaredNorm() > 0) addLoad(static_cast<int>(v), loadFactor_ * pointForce_[v]);
-    if constexpr (TW)
-      for (const auto& [e, m] : edgeMoment_) {
-        out.energy -= loadFactor_ * m * theta[e];
-        if (out.gradient) (*out.gradient)[thetaDof(e)] -= loadFactor_ * m;
-      }
-  }
-}
-
-namespace {
-struct SimOut {
-  double energy = 0.0;
-  Eigen::VectorXd* gradient = nullptr;
-  Eigen::SparseMatrix<double>* hessian = nullptr;
-};
-}  // namespace
 
 double PoseSystem::energy(const Eigen::VectorXd& u, const Design& d) const {
-  SimOut out;
+  detail::SimOut out;
   withLayout([&](auto Dc, auto TWc) { runSim<decltype(Dc)::value, decltype(TWc)::value>(u, d, out); });
   return out.energy;
 }
@@ -374,7 +293,7 @@ double PoseSystem::energy(const Eigen::VectorXd& u, const Design& d) const {
 void PoseSystem::evaluate(const Eigen::VectorXd& u, const Design& d, double& e, Eigen::VectorXd& g,
                           bool wantHessian) {
   g.setZero(nDofs_);
-  SimOut out;
+  detail::SimOut out;
   out.gradient = &g;
   if (wantHessian) {
     std::fill(hessian_.valuePtr(), hessian_.valuePtr() + hessian_.nonZeros(), 0.0);

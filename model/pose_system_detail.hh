@@ -124,6 +124,17 @@ void scatterSim(const ad::Hess<N, double>& r, const LocalStencil& ls, const int*
   }
 }
 
+// What a simulation evaluation fills (PoseSystem::runSim).
+struct SimOut {
+  double energy = 0.0;
+  Eigen::VectorXd* gradient = nullptr;
+  Eigen::SparseMatrix<double>* hessian = nullptr;
+};
+
+// Joint value slots are stored as block << kSlotShift | index (block 0: Huu,
+// 1: Hup, 2: Hpp).
+constexpr int kSlotShift = 28;
+
 // ------------------------------------------------------------------------
 // Local stencil builders: values and maps of each kernel's local variables.
 

@@ -1,7 +1,9 @@
 // Joint derivatives of a pose's energy w.r.t. unknowns and design in fixed
 // sparsity patterns, their directional derivatives (third derivatives), and
-// the first-order product (dF/dp)^T lambda for adjoint gradients. Kept apart
-// from the simulation path so that the two compile in parallel.
+// the first-order product (dF/dp)^T lambda for adjoint gradients: patterns
+// and entry points. The evaluations themselves (runJoint, runProduct) are
+// instantiated in pose_system_joint_values.cc, pose_system_joint_directional*.cc
+// and pose_system_product.cc (model/pose_system_impl.hh).
 #include "model/pose_system.hh"
 
 #include "model/pose_system_detail.hh"
@@ -119,9 +121,6 @@ Eigen::SparseMatrix<double> patternFrom(std::vector<std::vector<int>>& cols, int
   return m;
 }
 
-// Joint value slots are stored as block << kSlotShift | index.
-constexpr int kSlotShift = 28;
-
 int slotOf(const Eigen::SparseMatrix<double>& m, int r, int c) {
   const int* b = m.innerIndexPtr() + m.outerIndexPtr()[c];
   const int* e = m.innerIndexPtr() + m.outerIndexPtr()[c + 1];
@@ -214,82 +213,6 @@ const JointDerivatives& PoseSystem::jointPattern() const {
   return jointPattern_;
 }
 
-template <int D, bool TW, class T>
-void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v,
-                          JointDerivatives& out) const {
-  const std::vector<Vec3> x = positions(u, d);
-  const Eigen::VectorXd theta = twists(u);
-  const Mat32 B = fx_.planeBasis;
-  const std::vector<double> hc = heldCoefficients();
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
-  const bool derivative = v != nullptr;
-  double* vals[3] = {out.Huu.valuePtr(), out.Hup.valuePtr(), out.Hpp.valuePtr()};
-  constexpr int kSlotMask = (1 << kSlotShift) - 1;
-  auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
-    using K = std::decay_t<decltype(kern)>;
-    constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
-    JointMap m;
-    buildJointMap(ls, ctx, m);
-    double dir[2 * kMaxLocal] = {};
-    if (derivative)
-      for (int k = 0; k < ls.nx; ++k)
-        for (int t = 0; t < m.nterms[k]; ++t)
-          if (!m.isP[m.tg[k][t]]) dir[k] += m.tc[k][t] * (*v)[m.index[m.tg[k][t]]];
-    const ad::Hess<N, T> r = evalJoint<N, T>(kern, ls, derivative ? dir : nullptr);
-    out.energy += partOf(r.v, derivative);
-    GlobalBlock gb;
-    toGlobals<N, T>(r, m, ls.nx + ls.np, derivative, gb);
-    for (int i = 0; i < m.ng; ++i) {
-      if (gb.g[i] != 0.0) (m.isP[i] ? out.gp : out.gu)[m.index[i]] += gb.g[i];
-    }
-    const Stencil& st = jointStencils_[sidx];
-    const int* slots = jointSlots_.data() + st.offset;
-    const int nl = m.ng * (m.ng + 1) / 2;
-    for (int e = 0; e < nl; ++e) {
-      const double h = gb.L[e];
-      if (h == 0.0) continue;
-      const int sl = slots[e];
-      if (sl >= 0) vals[sl >> kSlotShift][sl & kSlotMask] += h;
-    }
-  };
-  forEachStencil<D, TW, true>(ctx, visit);
-
-  // Point forces and twisting moments: linear in the positions and twists.
-  if (use(Terms::Forces)) {
-    for (std::size_t vi = 0; vi < pointForce_.size(); ++vi) {
-      const Vec3 f = loadFactor_ * pointForce_[vi];
-      if (f.squaredNorm() == 0) continue;
-      const int k = vertexDof_[vi];
-      if (derivative) {
-        // D_v of the value -f.x; gradients and Hessians of a linear term have
-        // zero directional derivative.
-        if (k >= 0) {
-          const Vec3 dx = D == 3 ? Vec3(v->segment<3>(k)) : Vec3(B * v->segment<2>(k));
-          out.energy -= f.dot(dx);
-        }
-        continue;
-      }
-      out.energy -= f.dot(x[vi]);
-      if (k >= 0) {
-        if constexpr (D == 3) out.gu.template segment<3>(k) -= f;
-        else out.gu.template segment<2>(k) -= B.transpose() * f;
-      } else {
-        // A held vertex follows the design's rest position.
-        for (int j = 0; j < 3; ++j) out.gp[Design::restIndex(static_cast<int>(vi), j)] -= hc[vi] * f[j];
-      }
-    }
-    if constexpr (TW)
-      for (const auto& [e, mom] : edgeMoment_) {
-        if (derivative) {
-          out.energy -= loadFactor_ * mom * (*v)[thetaDof(e)];
-        } else {
-          out.energy -= loadFactor_ * mom * theta[e];
-          out.gu[thetaDof(e)] -= loadFactor_ * mom;
-        }
-      }
-  }
-}
-
 void PoseSystem::evaluateJoint(const Eigen::VectorXd& u, const Design& d, JointDerivatives& out,
                                const Eigen::VectorXd* v) const {
   buildJointPattern();
@@ -331,45 +254,6 @@ JointDerivatives PoseSystem::jointDirectional(const Eigen::VectorXd& u, const De
   JointDerivatives out;
   evaluateJoint(u, d, out, &v);
   return out;
-}
-
-// (dF/dp)^T lambda = D_lambda (dE/dp): the design gradient differentiated
-// along lambda in u-space, by first-order AD whose scalars carry a dual part
-// seeded with lambda (no Hessians formed).
-template <int D, bool TW>
-void PoseSystem::runProduct(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& lambda,
-                            Eigen::VectorXd& outP, Eigen::VectorXd* outU) const {
-  const std::vector<Vec3> x = positions(u, d);
-  const Eigen::VectorXd theta = twists(u);
-  const Mat32 B = fx_.planeBasis;
-  const std::vector<double> hc = heldCoefficients();
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
-  auto visit = [&](const auto& kern, const LocalStencil& ls, int) {
-    using K = std::decay_t<decltype(kern)>;
-    constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
-    using G = ad::Grad<N, ad::Dual>;
-    JointMap m;
-    buildJointMap(ls, ctx, m);
-    G vars[N];
-    for (int k = 0; k < ls.nx; ++k) {
-      double dk = 0.0;
-      for (int t = 0; t < m.nterms[k]; ++t)
-        if (!m.isP[m.tg[k][t]]) dk += m.tc[k][t] * lambda[m.index[m.tg[k][t]]];
-      vars[k] = G::variable(ad::Dual(ls.xv[k], dk), k);
-    }
-    for (int k = 0; k < ls.np; ++k) vars[ls.nx + k] = G::variable(ad::Dual(ls.pv[k]), ls.nx + k);
-    const G r = kern(vars, vars + ls.nx);
-    for (int k = 0; k < ls.nx + ls.np; ++k) {
-      const double gk = r.g[k].d;
-      if (gk == 0.0) continue;
-      for (int t = 0; t < m.nterms[k]; ++t) {
-        const int g = m.tg[k][t];
-        if (m.isP[g]) outP[m.index[g]] += m.tc[k][t] * gk;
-        else if (outU) (*outU)[m.index[g]] += m.tc[k][t] * gk;
-      }
-    }
-  };
-  forEachStencil<D, TW, true>(ctx, visit);
 }
 
 Eigen::VectorXd PoseSystem::designForceProduct(const Eigen::VectorXd& u, const Design& d,

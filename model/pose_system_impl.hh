@@ -1,0 +1,224 @@
+// Internal to model/pose_system*.cc: the definitions of PoseSystem's
+// per-layout evaluation templates, the ones that instantiate the AD kernels:
+// simulation (runSim), joint derivatives (runJoint, values and directional)
+// and the first-order design product (runProduct). Each is explicitly
+// instantiated once per unknowns layout and scalar, in translation units of
+// one evaluation each (pose_system_sim.cc, pose_system_joint_values.cc,
+// pose_system_product.cc; the directional derivatives, the largest, one per
+// dimension: pose_system_joint_directional{3,2}.cc), so that the heavy
+// instantiations compile once and in parallel; the callers (pose_system.cc,
+// pose_system_joint.cc) see only the declarations. Splitting further, one
+// translation unit per dimension for all four, cost 1.5 times the compile
+// CPU time (docs/testing.md).
+#pragma once
+
+#include "model/pose_system_detail.hh"
+
+#include <algorithm>
+
+namespace rodmesh {
+
+using namespace detail;
+
+// Gravity and point forces are linear in the positions: they add to the
+// gradient only (no Hessian) in simulation.
+template <int D, bool TW, class Out>
+void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const {
+  const std::vector<Vec3> x = positions(u, d);
+  const Eigen::VectorXd theta = twists(u);
+  const Mat32 B = fx_.planeBasis;
+  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, nullptr};
+  double* hv = out.hessian ? out.hessian->valuePtr() : nullptr;
+  auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
+    using K = std::decay_t<decltype(kern)>;
+    constexpr int NX = KernelSize<K>::nx;
+    if (!out.gradient && !hv) {
+      double xs[kMaxLocal], ps[kMaxLocal];
+      std::copy(ls.xv, ls.xv + ls.nx, xs);
+      std::copy(ls.pv, ls.pv + ls.np, ps);
+      out.energy += kern(xs, ps);
+      return;
+    }
+    if (!hv) {
+      // Forces only: first-order AD.
+      using G = ad::Grad<NX, double>;
+      G x[NX];
+      for (int i = 0; i < ls.nx; ++i) x[i] = G::variable(ls.xv[i], i);
+      const G r = kern(x, ls.pv);
+      out.energy += r.v;
+      for (int k = 0; k < ls.nx; ++k)
+        for (int a = 0; a < 2; ++a) {
+          const int pos = ls.xmap[k].idx[a];
+          if (pos < 0) continue;
+          const int I = ls.sdofs[pos];
+          if (I >= 0) (*out.gradient)[I] += ls.xmap[k].coef[a] * r.g[k];
+        }
+      return;
+    }
+    const ad::Hess<NX, double> r = evalLocal<NX, double, false>(kern, ls, nullptr);
+    out.energy += r.v;
+    scatterSim<NX>(r, ls, stencilSlots_.data() + stencils_[sidx].offset, out.gradient, hv);
+  };
+  forEachStencil<D, TW, false>(ctx, visit);
+
+  // External loads: gravity (lumped edge masses) and point forces, scaled by
+  // the load factor.
+  const auto& edges = net_.edges();
+  auto addLoad = [&](int v, const Vec3& f) {
+    out.energy -= f.dot(x[v]);
+    const int k = vertexDof_[v];
+    if (k < 0 || !out.gradient) return;
+    if constexpr (D == 3) out.gradient->template segment<3>(k) -= f;
+    else out.gradient->template segment<2>(k) -= B.transpose() * f;
+  };
+  if (fx_.has(Effect::Gravity) && use(Terms::Gravity)) {
+    const Vec3 g = loadFactor_ * *scene_.gravity;
+    const double rho = scene_.material.density;
+    for (const Edge& e : edges) {
+      const double L = (d.restPositions[e.b] - d.restPositions[e.a]).norm();
+      const double m = 0.5 * L *
+                       (stiffness::massPerLength(rho, d.radii[e.a][0], d.radii[e.a][1]) +
+                        stiffness::massPerLength(rho, d.radii[e.b][0], d.radii[e.b][1]));
+      addLoad(e.a, 0.5 * m * g);
+      addLoad(e.b, 0.5 * m * g);
+    }
+  }
+  if (use(Terms::Forces)) {
+    for (std::size_t v = 0; v < pointForce_.size(); ++v)
+      if (pointForce_[v].squaredNorm() > 0) addLoad(static_cast<int>(v), loadFactor_ * pointForce_[v]);
+    if constexpr (TW)
+      for (const auto& [e, m] : edgeMoment_) {
+        out.energy -= loadFactor_ * m * theta[e];
+        if (out.gradient) (*out.gradient)[thetaDof(e)] -= loadFactor_ * m;
+      }
+  }
+}
+
+template <int D, bool TW, class T>
+void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v,
+                          JointDerivatives& out) const {
+  const std::vector<Vec3> x = positions(u, d);
+  const Eigen::VectorXd theta = twists(u);
+  const Mat32 B = fx_.planeBasis;
+  const std::vector<double> hc = heldCoefficients();
+  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
+  const bool derivative = v != nullptr;
+  double* vals[3] = {out.Huu.valuePtr(), out.Hup.valuePtr(), out.Hpp.valuePtr()};
+  constexpr int kSlotMask = (1 << kSlotShift) - 1;
+  auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
+    using K = std::decay_t<decltype(kern)>;
+    constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
+    JointMap m;
+    buildJointMap(ls, ctx, m);
+    double dir[2 * kMaxLocal] = {};
+    if (derivative)
+      for (int k = 0; k < ls.nx; ++k)
+        for (int t = 0; t < m.nterms[k]; ++t)
+          if (!m.isP[m.tg[k][t]]) dir[k] += m.tc[k][t] * (*v)[m.index[m.tg[k][t]]];
+    const ad::Hess<N, T> r = evalJoint<N, T>(kern, ls, derivative ? dir : nullptr);
+    out.energy += partOf(r.v, derivative);
+    GlobalBlock gb;
+    toGlobals<N, T>(r, m, ls.nx + ls.np, derivative, gb);
+    for (int i = 0; i < m.ng; ++i) {
+      if (gb.g[i] != 0.0) (m.isP[i] ? out.gp : out.gu)[m.index[i]] += gb.g[i];
+    }
+    const Stencil& st = jointStencils_[sidx];
+    const int* slots = jointSlots_.data() + st.offset;
+    const int nl = m.ng * (m.ng + 1) / 2;
+    for (int e = 0; e < nl; ++e) {
+      const double h = gb.L[e];
+      if (h == 0.0) continue;
+      const int sl = slots[e];
+      if (sl >= 0) vals[sl >> kSlotShift][sl & kSlotMask] += h;
+    }
+  };
+  forEachStencil<D, TW, true>(ctx, visit);
+
+  // Point forces and twisting moments: linear in the positions and twists.
+  if (use(Terms::Forces)) {
+    for (std::size_t vi = 0; vi < pointForce_.size(); ++vi) {
+      const Vec3 f = loadFactor_ * pointForce_[vi];
+      if (f.squaredNorm() == 0) continue;
+      const int k = vertexDof_[vi];
+      if (derivative) {
+        // D_v of the value -f.x; gradients and Hessians of a linear term have
+        // zero directional derivative.
+        if (k >= 0) {
+          const Vec3 dx = D == 3 ? Vec3(v->segment<3>(k)) : Vec3(B * v->segment<2>(k));
+          out.energy -= f.dot(dx);
+        }
+        continue;
+      }
+      out.energy -= f.dot(x[vi]);
+      if (k >= 0) {
+        if constexpr (D == 3) out.gu.template segment<3>(k) -= f;
+        else out.gu.template segment<2>(k) -= B.transpose() * f;
+      } else {
+        // A held vertex follows the design's rest position.
+        for (int j = 0; j < 3; ++j) out.gp[Design::restIndex(static_cast<int>(vi), j)] -= hc[vi] * f[j];
+      }
+    }
+    if constexpr (TW)
+      for (const auto& [e, mom] : edgeMoment_) {
+        if (derivative) {
+          out.energy -= loadFactor_ * mom * (*v)[thetaDof(e)];
+        } else {
+          out.energy -= loadFactor_ * mom * theta[e];
+          out.gu[thetaDof(e)] -= loadFactor_ * mom;
+        }
+      }
+  }
+}
+
+// (dF/dp)^T lambda = D_lambda (dE/dp): the design gradient differentiated
+// along lambda in u-space, by first-order AD whose scalars carry a dual part
+// seeded with lambda (no Hessians formed).
+template <int D, bool TW>
+void PoseSystem::runProduct(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& lambda,
+                            Eigen::VectorXd& outP, Eigen::VectorXd* outU) const {
+  const std::vector<Vec3> x = positions(u, d);
+  const Eigen::VectorXd theta = twists(u);
+  const Mat32 B = fx_.planeBasis;
+  const std::vector<double> hc = heldCoefficients();
+  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
+  auto visit = [&](const auto& kern, const LocalStencil& ls, int) {
+    using K = std::decay_t<decltype(kern)>;
+    constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
+    using G = ad::Grad<N, ad::Dual>;
+    JointMap m;
+    buildJointMap(ls, ctx, m);
+    G vars[N];
+    for (int k = 0; k < ls.nx; ++k) {
+      double dk = 0.0;
+      for (int t = 0; t < m.nterms[k]; ++t)
+        if (!m.isP[m.tg[k][t]]) dk += m.tc[k][t] * lambda[m.index[m.tg[k][t]]];
+      vars[k] = G::variable(ad::Dual(ls.xv[k], dk), k);
+    }
+    for (int k = 0; k < ls.np; ++k) vars[ls.nx + k] = G::variable(ad::Dual(ls.pv[k]), ls.nx + k);
+    const G r = kern(vars, vars + ls.nx);
+    for (int k = 0; k < ls.nx + ls.np; ++k) {
+      const double gk = r.g[k].d;
+      if (gk == 0.0) continue;
+      for (int t = 0; t < m.nterms[k]; ++t) {
+        const int g = m.tg[k][t];
+        if (m.isP[g]) outP[m.index[g]] += m.tc[k][t] * gk;
+        else if (outU) (*outU)[m.index[g]] += m.tc[k][t] * gk;
+      }
+    }
+  };
+  forEachStencil<D, TW, true>(ctx, visit);
+}
+
+}  // namespace rodmesh
+
+// Explicit instantiations for one unknowns layout (D, TW).
+#define RODMESH_INSTANTIATE_SIM(D, TW)                                                                            \
+  template void rodmesh::PoseSystem::runSim<D, TW, rodmesh::detail::SimOut>(                                      \
+      const Eigen::VectorXd&, const rodmesh::Design&, rodmesh::detail::SimOut&) const;
+#define RODMESH_INSTANTIATE_JOINT(D, TW, T)                                                                       \
+  template void rodmesh::PoseSystem::runJoint<D, TW, T>(const Eigen::VectorXd&, const rodmesh::Design&,            \
+                                                        const Eigen::VectorXd*, rodmesh::JointDerivatives&) const;
+#define RODMESH_INSTANTIATE_PRODUCT(D, TW)                                                                        \
+  template void rodmesh::PoseSystem::runProduct<D, TW>(const Eigen::VectorXd&, const rodmesh::Design&,             \
+                                                       const Eigen::VectorXd&, Eigen::VectorXd&, Eigen::VectorXd*)  \
+      const;
