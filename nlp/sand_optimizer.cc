@@ -352,7 +352,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   // depend on what ran before.
   o.SetIntegerValue("mumps_pivot_order", 5);
   o.SetStringValue("hessian_approximation", "exact");
-  o.SetStringValue("mu_strategy", "monotone");  // see docs/optimization.md: faster than adaptive on the hat
+  o.SetStringValue("mu_strategy", "adaptive");  // not monotone: docs/optimization.md
   o.SetNumericValue("tol", opt.tolerance);
   o.SetNumericValue("dual_inf_tol", opt.tolerance);
   o.SetNumericValue("constr_viol_tol", std::max(1e-12, 10.0 * opt.newton.tolerance));

@@ -65,15 +65,19 @@ def sh(cmd):
         return ""
 
 
-def machine():
-    cpu = "unknown CPU"
+def cpu_model():
+    """The processor's model name (/proc/cpuinfo), for naming the machine."""
     try:
         for line in open("/proc/cpuinfo"):
             if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
+                return line.split(":", 1)[1].strip()
     except OSError:
         pass
+    return "unknown CPU"
+
+
+def machine():
+    cpu = cpu_model()
     mem = 0
     try:
         for line in open("/proc/meminfo"):

@@ -234,7 +234,7 @@ TEST_F(OptimizeCli, SandWithWarmStartedMultipliersRecoversAHiddenDesign) {
 
 TEST_F(OptimizeCli, SandPassesIpoptOptionsAndReportsAnOptionsFile) {
   std::string err;
-  clitest::writeText(path("ipopt.opt"), "mu_strategy adaptive\n");
+  clitest::writeText(path("ipopt.opt"), "mu_strategy monotone\n");
   const int status = run("optimize scene.json -o out.h5 --ipopt mu_init=0.01 --ipopt max_cpu_time=1000", &err);
   ASSERT_TRUE(status == 0 || status == 1) << err;
   EXPECT_NE(err.find("ipopt.opt"), std::string::npos) << err;
