@@ -432,7 +432,8 @@ TEST_F(HardStatics, FreeRodPulledApartStretchesByFLOverEA) {
   s.poses[0].forces = {{0, Vec3(-F, 0, 0)}, {10, Vec3(F, 0, 0)}};
   const RunResult run = simulate(s);
   ASSERT_EQ(run.status, 0) << run.err;
-  const MatX3& x = onlyPose(archive()).positions;
+  const Archive a = archive();
+  const MatX3& x = onlyPose(a).positions;
   EXPECT_NEAR(x(10, 0) - x(0, 0), L * (1 + F / EA(kSoft, r)), 1e-9 * L);
 }
 
@@ -443,7 +444,8 @@ TEST_F(HardStatics, FreeRodUnderACoupleTurnsAlongTheForces) {
   const RunResult run = simulate(s);
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_EQ(archive().status, "converged");
-  const MatX3& x = onlyPose(archive()).positions;
+  const Archive a = archive();
+  const MatX3& x = onlyPose(a).positions;
   const Vec3 d = row(x, 10) - row(x, 0);
   EXPECT_NEAR(d.x(), 0.0, 1e-9 * L);
   EXPECT_NEAR(d.y(), L * (1 + F / EA(kSoft, r)), 1e-9 * L);
