@@ -74,7 +74,9 @@ void checkOptions(OptimizeOptions& o) {
   if (o.method == "sand")
     if (std::string why = checkIpoptOptionsFile(); !why.empty()) throw InputError("optimize: " + why);
 #endif
-  o.optimizer.schedule = o.schedule == "joint" ? Schedule::Joint : Schedule::Paper;
+  o.optimizer.schedule = o.schedule == "joint"    ? Schedule::Joint
+                         : o.schedule == "levels" ? Schedule::Levels
+                                                  : Schedule::Paper;
   if (std::string why = o.optimizer.isValid(); !why.empty()) throw InputError("optimize: " + why);
 }
 
@@ -99,8 +101,9 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                   "Ipopt's tol and dual_inf_tol, the objective being scaled to 1 at the start of each phase")
       ->capture_default_str();
   app->add_option("--schedule", opts->schedule,
-                  "paper (radii by levels, then rest shape and radii alternating) or joint (everything at once)")
-      ->check(CLI::IsMember({"paper", "joint"}))
+                  "paper (radii by levels, then rest shape and radii alternating), joint (everything at once) or "
+                  "levels (radii by levels, then radii and rest shape together)")
+      ->check(CLI::IsMember({"paper", "joint", "levels"}))
       ->capture_default_str();
   app->add_option("--threads", opts->optimizer.threads, "poses solved in parallel (results do not depend on it)")
       ->capture_default_str();

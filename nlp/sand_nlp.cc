@@ -268,6 +268,18 @@ bool SandNlp::ensureJoint() {
   return jointReady_;
 }
 
+void SandNlp::poseGradient(int k, Eigen::VectorXd& grad) {
+  if (jointReady_) {
+    grad = joint_[k].gu;
+    return;
+  }
+  PoseSystem& sys = model_.pose(k);
+  sys.setCharts(charts_[k]);
+  sys.setLoadFactor(1.0);
+  double e;
+  sys.evaluate(u_[k], design_, e, grad, false);
+}
+
 bool SandNlp::objective(const double* x, double& f) {
   return guarded([&] {
     if (!prepare(x)) return false;
@@ -303,17 +315,9 @@ bool SandNlp::constraints(const double* x, double* c) {
     forEachPose(K_, threads_, [&](int k) {
       try {
         const int n = offset_[k + 1] - offset_[k];
-        if (jointReady_) {
-          out.segment(offset_[k], n) = rowScale_[k].cwiseProduct(joint_[k].gu);
-        } else {
-          PoseSystem& sys = model_.pose(k);
-          sys.setCharts(charts_[k]);
-          sys.setLoadFactor(1.0);
-          double e;
-          Eigen::VectorXd grad;
-          sys.evaluate(u_[k], design_, e, grad, false);
-          out.segment(offset_[k], n) = rowScale_[k].cwiseProduct(grad);
-        }
+        Eigen::VectorXd grad;
+        poseGradient(k, grad);
+        out.segment(offset_[k], n) = rowScale_[k].cwiseProduct(grad);
       } catch (...) {
         ok[k] = 0;
       }
@@ -398,18 +402,14 @@ double SandNlp::rms(const double* x) {
 double SandNlp::forceViolation(const double* x) {
   if (!prepare(x)) return std::numeric_limits<double>::quiet_NaN();
   double worst = 0.0;
-  for (int k = 0; k < K_; ++k) {
-    PoseSystem& sys = model_.pose(k);
-    Eigen::VectorXd grad;
-    if (jointReady_) {
-      grad = joint_[k].gu;
-    } else {
-      sys.setCharts(charts_[k]);
-      sys.setLoadFactor(1.0);
-      double e;
-      sys.evaluate(u_[k], design_, e, grad, false);
+  try {
+    for (int k = 0; k < K_; ++k) {
+      Eigen::VectorXd grad;
+      poseGradient(k, grad);
+      if (grad.size() > 0) worst = std::max(worst, model_.pose(k).forceResidual(grad).lpNorm<Eigen::Infinity>());
     }
-    if (grad.size() > 0) worst = std::max(worst, sys.forceResidual(grad).lpNorm<Eigen::Infinity>());
+  } catch (...) {  // called from Ipopt's iteration callback: nothing may throw through it
+    return std::numeric_limits<double>::infinity();
   }
   return worst;
 }

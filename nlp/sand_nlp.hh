@@ -93,6 +93,8 @@ class SandNlp {
  private:
   bool prepare(const double* x);    // unpack x into u_k and the design
   bool ensureJoint();               // joint derivatives at the prepared x
+  // dE_k/du_k at the prepared x (from the joint derivatives when ready); may throw.
+  void poseGradient(int k, Eigen::VectorXd& grad);
   template <class Fn>
   bool guarded(Fn&& fn);            // timing + catch
 

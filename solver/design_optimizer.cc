@@ -300,7 +300,9 @@ std::vector<DesignStep> designSchedule(const Scene& scene, const DesignSpace& sp
     if (radii)
       for (int l = 0; l <= finest; ++l) steps.push_back({{true, false, l}, 0});
     if (rest) {
-      if (radii) {
+      if (radii && opt.schedule == Schedule::Levels) {
+        steps.push_back({{true, true, finest}, 0});
+      } else if (radii) {
         for (int r = 1; r <= opt.maxAlternations; ++r) {
           steps.push_back({{false, true, finest}, r});
           steps.push_back({{true, false, finest}, r});

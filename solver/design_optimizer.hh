@@ -53,7 +53,11 @@ class TargetObjective {
   std::vector<double> weights_;
 };
 
-enum class Schedule { Paper, Joint };
+// Paper: radii level by level, then rest shape and radii alternating (the
+// paper's §4.3, contract §4). Joint: every free parameter at the finest level
+// from the start. Levels: radii level by level, then radii and rest shape
+// together at the finest level (one phase instead of the alternation).
+enum class Schedule { Paper, Joint, Levels };
 
 // How the reduced method gets the design part of its gradient
 // (docs/optimization.md, "Design derivatives").

@@ -162,6 +162,46 @@ TEST(DesignSchedule, TheRunEndsWhenARoundLowersTheObjectiveByLessThanTheRoundThr
   EXPECT_EQ(r.iterations, seg[6].last) << "the same path as the run without the round test, up to round 2";
 }
 
+// --schedule levels: the radius levels as in the paper schedule, then one
+// phase with radii and rest shape together at the finest level, which is the
+// rest of the run (no cap of its own, no alternation).
+TEST(DesignSchedule, LevelsEndsWithOneJointPhaseThatIsTheRestOfTheRun) {
+  const Scene scene = problem();
+  SceneModel model(scene);
+  const DesignSpace space(scene, model.effects());
+  DesignOptimizerOptions o = baseOptions();
+  o.schedule = Schedule::Levels;
+  const std::vector<DesignStep> steps = designSchedule(scene, space, o);
+  ASSERT_EQ(steps.size(), 4u);
+  for (int l = 0; l < 3; ++l) {
+    EXPECT_TRUE(steps[l].phase.radii && !steps[l].phase.restShape);
+    EXPECT_EQ(steps[l].phase.level, l);
+  }
+  EXPECT_TRUE(steps[3].phase.radii && steps[3].phase.restShape);
+  EXPECT_EQ(steps[3].phase.level, space.numLevels() - 1);
+  EXPECT_EQ(steps[3].round, 0);
+
+  o.maxLevelIterations = 3;
+  o.maxPhaseIterations = 4;
+  o.phaseRelativeDecrease = 0.0;
+  o.maxIterations = 20;
+  const DesignOptimizerResult r = optimize(o);
+  const std::vector<Segment> seg = segments(r.history);
+  ASSERT_EQ(seg.size(), 4u) << r.status.message;
+  EXPECT_EQ(seg[3].phase, "joint");
+  EXPECT_EQ(seg[3].iterations(), 20 - 3 * 3) << "the joint phase is not capped by maxPhaseIterations";
+  EXPECT_LT(r.objective, r.initialObjective);
+
+  // Without rest shape, levels is the paper schedule's radius levels.
+  Scene radiiOnly = scene;
+  radiiOnly.design.restShape = false;
+  const std::vector<DesignStep> radii = designSchedule(radiiOnly, space, o);
+  o.schedule = Schedule::Paper;
+  const std::vector<DesignStep> paper = designSchedule(radiiOnly, space, o);
+  ASSERT_EQ(radii.size(), paper.size());
+  for (std::size_t i = 0; i < radii.size(); ++i) EXPECT_EQ(radii[i].phase.level, paper[i].phase.level);
+}
+
 TEST(DesignSchedule, RejectsBadScheduleLimits) {
   DesignOptimizerOptions o;
   EXPECT_EQ(o.isValid(), "");
