@@ -2,7 +2,8 @@
 // optimization (../shared/contracts.md §2 and §4). Finds the radii and rest
 // shape (design.parameters) for which every pose's equilibrium reproduces its
 // target, archives the design, its control points, the history, and every
-// pose re-solved from scratch under the final design.
+// pose re-solved from scratch under the final design (or, when that fails,
+// under the best earlier design that re-solves: solver/design_fallback.hh).
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -12,6 +13,7 @@
 #include "apps/commands.hh"
 #include "io/interrupt.hh"
 #include "model/design_space.hh"
+#include "solver/design_fallback.hh"
 #include "solver/design_optimizer.hh"
 #include "solver/equilibrium.hh"
 #ifdef RODMESH_HAVE_NLP
@@ -187,8 +189,12 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     }
 
     // Never report a design from the optimizer's own equilibria: re-solve
-    // every pose from scratch (Newton from rest) under the final design.
-    const Design& design = r.design;
+    // every pose from scratch (Newton from rest) under the final design or,
+    // when a pose cannot be, under the best earlier design that can
+    // (solver/design_fallback.hh).
+    const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, o.optimizer.newton);
+    if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
+    const Design& design = chosen.design;
     const Design initial = space.toDesign(space.initialControls(scene));
     Archive a;
     a.version = versionString();
@@ -197,31 +203,37 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     describeModel(a, model.network(), model.effects(), model.numPoses() > 0 ? model.pose(0).numDofs() : 0);
     setRestAndRadii(a, design.restPositions, design.radii);
     a.initialRadii = toRows(initial.radii);
-    bool allSolved = true;
-    const SimulationResult sim = simulateAll(model, design, o.optimizer.newton);
     for (int p = 0; p < model.numPoses(); ++p) {
-      const PoseResult& pr = sim.poses[p];
+      const PoseResult& pr = chosen.simulation.poses[p];
       PoseSolveSummary sum;
       sum.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
       sum.residualNorm = pr.report.residualNorm;
       sum.iterations = pr.report.iterations;
       sum.timeSeconds = pr.report.timeSeconds;
       if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
-      allSolved = allSolved && pr.report.converged;
       ArchivePose ap = makeArchivePose(pr.name, pr.positions, model.effects().has(Effect::Twist) ? &pr.twist : nullptr,
                                        scene.poses[p].target, sum);
+      // The optimizer's own equilibria exist for its final design only; a
+      // fallback design's are not kept, and neither is its gap.
       std::vector<Vec3> own = pr.positions;
-      if (p < static_cast<int>(r.states.size()) && r.states[p].u.size() == model.pose(p).numDofs()) {
+      if (!chosen.fallback && p < static_cast<int>(r.states.size()) &&
+          r.states[p].u.size() == model.pose(p).numDofs()) {
         model.pose(p).setState(r.states[p]);
         own = model.pose(p).positions(r.states[p].u, design);
       }
-      setOptimizeResult(ap, r.initialPositions.size() > static_cast<std::size_t>(p) ? r.initialPositions[p] : pr.positions,
-                        own);
+      // Without equilibria of the initial design (the run failed before
+      // them), the re-solved positions stand in.
+      const std::vector<Vec3>& initialPositions =
+          r.initialPositions.size() > static_cast<std::size_t>(p) ? r.initialPositions[p] : pr.positions;
+      setOptimizeResult(ap, initialPositions, own);
+      if (chosen.fallback) ap.equilibriumGap.reset();
       if (!quiet) {
-        std::fprintf(stderr, "pose %d '%s': re-solved from rest: %s, RMS %.4f mm (initial design %.4f mm), gap to the "
-                     "optimizer's equilibrium %.3e m\n",
-                     p, pr.name.c_str(), sum.status.c_str(), ap.rmsError.value_or(0.0) * 1e3,
-                     rmsError(r.initialPositions[p], scene.poses[p].target) * 1e3, ap.equilibriumGap.value_or(0.0));
+        std::fprintf(stderr, "pose %d '%s': re-solved from rest under %s: %s, RMS %.4f mm (initial design %.4f mm)",
+                     p, pr.name.c_str(), chosen.label.c_str(), sum.status.c_str(), ap.rmsError.value_or(0.0) * 1e3,
+                     rmsError(initialPositions, scene.poses[p].target) * 1e3);
+        if (ap.equilibriumGap)
+          std::fprintf(stderr, ", gap to the optimizer's equilibrium %.3e m", *ap.equilibriumGap);
+        std::cerr << "\n";
         if (!pr.report.converged) std::cerr << "  reason: " << pr.report.message << "\n";
       }
       a.poses.push_back(std::move(ap));
@@ -239,10 +251,10 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     }
     a.history = h;
     ArchiveControlPoints cp;
-    cp.radii = MatX2(r.controls.radii.rows(), 2);
-    cp.radii = r.controls.radii;
-    cp.restDisplacement = MatX3(r.controls.displacement.rows(), 3);
-    cp.restDisplacement = r.controls.displacement;
+    cp.radii = MatX2(chosen.controls.radii.rows(), 2);
+    cp.radii = chosen.controls.radii;
+    cp.restDisplacement = MatX3(chosen.controls.displacement.rows(), 3);
+    cp.restDisplacement = chosen.controls.displacement;
     for (const ControlPoint& c : space.controlPoints()) {
       cp.rod.push_back(c.rod);
       cp.arcFraction.push_back(c.arcFraction);
@@ -257,11 +269,12 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     s.evaluationSeconds = r.evaluationSeconds;
     s.solverSeconds = r.solverSeconds;
     s.peakMemoryBytes = r.peakMemoryBytes;
-    if (!allSolved) s.message += "; a pose did not converge when re-solved from rest under the final design";
+    if (!chosen.note.empty()) s.message += "; " + chosen.note;
     a.optimize = s;
     if (o.method == "reduced")
       a.extraRootAttributes["design_derivatives"] = designDerivativesName(o.optimizer.designDerivatives);
-    const bool converged = r.status.converged() && allSolved;
+    a.extraRootAttributes["archived_design"] = chosen.fallback ? chosen.label : "final";
+    const bool converged = r.status.converged() && chosen.allConverged && !chosen.fallback;
     a.status = converged ? "converged" : (r.status.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
     const std::optional<double> rms = overallRmsError(a);
     writeArchive(a, o.output);
