@@ -125,7 +125,7 @@ ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space,
     out.note = "the final design (" + millimetres(result.rms) +
                " on the optimizer's equilibria) could not be re-solved from rest (" + finalFailure +
                "); archived " + f.label + " (RMS " + millimetres(rms) + " re-solved from rest, " +
-               millimetres(f.rms) + " on the optimizer's equilibria), the best that can" + skipped;
+               millimetres(f.rms) + " on the optimizer's equilibria), the best earlier design that re-solves from rest" + skipped;
     return out;
   }
   if (!tryInitial)
