@@ -8,8 +8,13 @@
 // across the sheet (r_t 1.1 to 2.7 mm, r_n 1.1 to 2.3 mm), representable by the
 // control points; the scene's own radii are the uniform default (2 mm).
 #include "io/archive.hh"
+#include "io/scene_writer.hh"
+#include "model/design_space.hh"
+#include "solver/design_fallback.hh"
+#include "solver/design_optimizer.hh"
 
 #include "tests/cli/cli_util.hh"
+#include "tests/testutil/design_problems.hh"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
@@ -137,6 +142,38 @@ void OptimizeCli::checkRecovery(const std::string& args, const std::string& meth
     ASSERT_TRUE(a.poses[p].equilibriumGap.has_value());
     EXPECT_LT(*a.poses[p].equilibriumGap, 1e-6);
   }
+  EXPECT_EQ(rootStringAttribute(path("out.h5"), "archived_design"), "final");
+}
+
+// The re-solve from rest that chooses the archived design
+// (chooseArchivedDesign, solver/design_fallback.hh) is the solve of
+// `rodmesh simulate`: a fallback design chosen in a run whose final design
+// cannot be re-solved from rest (tests/solver/design_fallback_test.cc: Newton
+// limited to 6 iterations per load step for both) is reproduced by the
+// executable with the same budget, --max-iter 6.
+TEST_F(OptimizeCli, ResimulateReproducesAFallbackDesign) {
+  Scene s = testutil::bentCantilever(2e-3);
+  testutil::setScaledRadiiTargets(s, 0.6);
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  DesignOptimizerOptions o;
+  o.maxIterations = 60;
+  o.newton.maxIterations = 6;
+  const DesignOptimizerResult r = optimizeReduced(model, space, o);
+  const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, o.newton);
+  ASSERT_TRUE(chosen.fallback) << chosen.note;
+  ASSERT_TRUE(chosen.allConverged) << chosen.note;
+  writeSceneFile(testutil::withDesign(s, chosen.design), path("check.json"));
+  std::string err;
+  ASSERT_EQ(run("simulate check.json -o check.h5 --max-iter 6", &err), 0) << err;
+  const Archive c = readArchive(path("check.h5"));
+  ASSERT_EQ(c.poses.size(), 1u);
+  double gap = 0.0;
+  for (std::size_t v = 0; v < chosen.simulation.poses[0].positions.size(); ++v)
+    gap = std::max(gap, (c.poses[0].positions.row(v).transpose() - chosen.simulation.poses[0].positions[v]).norm());
+  EXPECT_LT(gap, 1e-8);
+  ASSERT_TRUE(c.poses[0].rmsError.has_value());
+  EXPECT_NEAR(*c.poses[0].rmsError, chosen.rms, 1e-12);
 }
 
 TEST_F(OptimizeCli, ReducedRecoversAHiddenDesignAndItsPositionsAreEquilibria) {

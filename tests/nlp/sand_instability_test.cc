@@ -8,6 +8,7 @@
 #include "nlp/sand.hh"
 #include "solver/design_optimizer.hh"
 #include "solver/equilibrium.hh"
+#include "tests/testutil/design_problems.hh"
 #include "tests/testutil/scenes.hh"
 
 #include <gtest/gtest.h>
@@ -30,16 +31,6 @@ double rmsFromRest(const Scene& scene, const Design& d, bool* converged) {
     for (std::size_t v = 0; v < scene.vertices.size(); ++v, ++n)
       ss += (sim.poses[p].positions[v] - scene.poses[p].target[v]).squaredNorm();
   return std::sqrt(ss / n);
-}
-
-// Targets: the equilibria, from rest, of the scene with its radii scaled.
-void setHiddenTargets(Scene& s, double radiusScale) {
-  Scene h = s;
-  for (Vec2& r : h.radii) r *= radiusScale;
-  SceneModel hm(h);
-  const SimulationResult sim = simulateAll(hm, Design::fromScene(h), NewtonOptions{});
-  ASSERT_TRUE(sim.allConverged);
-  for (std::size_t p = 0; p < s.poses.size(); ++p) s.poses[p].target = sim.poses[p].positions;
 }
 
 // Largest transverse (y) excursion of a pose's positions.
@@ -155,7 +146,7 @@ class Instability : public testing::TestWithParam<Method> {};
 
 TEST_P(Instability, BuckledColumnTargets) {
   Scene s = column();
-  setHiddenTargets(s, 0.75);
+  testutil::setScaledRadiiTargets(s, 0.75);
   // The premise: the targets sway far more than the initial design does.
   SceneModel m(s);
   const SimulationResult initial = simulateAll(m, Design::fromScene(s), NewtonOptions{});
@@ -176,7 +167,7 @@ TEST_P(Instability, SnappedArchTargets) {
   // The premise: the hidden design snaps through, the initial one does not.
   ASSERT_LT(crownHeight(s, 0.8), 0.0);
   ASSERT_GT(crownHeight(s, 1.0), 0.0);
-  setHiddenTargets(s, 0.8);
+  testutil::setScaledRadiiTargets(s, 0.8);
   expectClean(s, GetParam(), true);
 }
 
