@@ -148,17 +148,16 @@ void OptimizeCli::checkRecovery(const std::string& args, const std::string& meth
 // The re-solve from rest that chooses the archived design
 // (chooseArchivedDesign, solver/design_fallback.hh) is the solve of
 // `rodmesh simulate`: a fallback design chosen in a run whose final design
-// cannot be re-solved from rest (tests/solver/design_fallback_test.cc: Newton
-// limited to 6 iterations per load step for both) is reproduced by the
-// executable with the same budget, --max-iter 6.
+// cannot be re-solved from rest (testutil::fallbackCase: Newton limited to 6
+// iterations per load step for both) is reproduced by the executable with the
+// same budget, --max-iter 6.
 TEST_F(OptimizeCli, ResimulateReproducesAFallbackDesign) {
-  Scene s = testutil::bentCantilever(2e-3);
-  testutil::setScaledRadiiTargets(s, 0.6);
+  const Scene s = testutil::fallbackCase();
   SceneModel model(s);
   const DesignSpace space(s, model.effects());
   DesignOptimizerOptions o;
   o.maxIterations = 60;
-  o.newton.maxIterations = 6;
+  o.newton = testutil::fallbackCaseNewton();
   const DesignOptimizerResult r = optimizeReduced(model, space, o);
   const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, o.newton);
   ASSERT_TRUE(chosen.fallback) << chosen.note;

@@ -1,8 +1,7 @@
 // SAND keeps its phase designs as fallbacks (solver/design_fallback.hh), and
-// the design chosen for the archive re-solves from rest: the bent cantilever
-// of tests/solver/design_fallback_test.cc, Newton limited to 6 iterations per
-// load step for the optimizer's polishing solves and the re-solves alike, so
-// that the thin designs the targets call for cannot be solved from rest.
+// the design chosen for the archive re-solves from rest, in a run whose final
+// design cannot be (testutil::fallbackCase: the thin design the targets call
+// for is out of reach from rest under its Newton budget).
 #include "model/design_space.hh"
 #include "nlp/sand.hh"
 #include "solver/design_fallback.hh"
@@ -16,14 +15,13 @@ namespace rodmesh {
 namespace {
 
 TEST(SandFallback, KeepsItsPhaseDesignsAndArchivesOneThatResolvesFromRest) {
-  Scene s = testutil::bentCantilever(2e-3);
-  testutil::setScaledRadiiTargets(s, 0.6);
+  const Scene s = testutil::fallbackCase();
   SceneModel model(s);
   const DesignSpace space(s, model.effects());
   SandOptions o;
   o.readOptionsFile = false;
   o.optimizer.maxIterations = 200;
-  o.optimizer.newton.maxIterations = 6;
+  o.optimizer.newton = testutil::fallbackCaseNewton();
   const DesignOptimizerResult r = optimizeSand(model, space, o);
   SCOPED_TRACE(r.status.message);
   ASSERT_FALSE(r.fallbacks.empty());

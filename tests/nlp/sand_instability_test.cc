@@ -40,16 +40,6 @@ double sway(const std::vector<Vec3>& x) {
   return m;
 }
 
-// Radii free within [0.5, 2] mm, 4 control points per rod.
-void freeRadii(Scene& s) {
-  s.design.present = true;
-  s.design.radii = true;
-  s.design.hasRadiusBounds = true;
-  s.design.radiusMin = 0.0005;
-  s.design.radiusMax = 0.002;
-  s.design.controlPointsPerRod = 4;
-}
-
 // A planar column: 20 edges over 0.2 m along +x, clamped at x = 0, radius
 // 1 mm, compressed at its tip by 0.8 of the initial design's Euler load
 // (clamped-free: pi^2 EI / (4 L^2)) with a lateral imperfection of 1% of the
@@ -61,7 +51,7 @@ Scene column() {
   const double E = s.material.youngModulus, I = kPi * std::pow(0.001, 4) / 4.0, L = 0.2;
   const double P = 0.8 * kPi * kPi * E * I / (4.0 * L * L);
   s.poses[0].forces.push_back({testutil::tipVertex(s), Vec3(-P, 0.01 * P, 0.0)});
-  freeRadii(s);
+  testutil::freeRadii(s);
   return s;
 }
 
@@ -90,7 +80,7 @@ Scene arch(double force) {
   p.clamped = {{0}, {n}};
   p.forces.push_back({n / 2, Vec3(0.0, -force, 0.0)});
   s.poses.push_back(p);
-  freeRadii(s);
+  testutil::freeRadii(s);
   return s;
 }
 

@@ -2,14 +2,14 @@
 // bounded list of fallback designs, and the choice of the first design whose
 // every pose re-solves from rest when the final one does not.
 //
-// The case: a cantilever bent far by a tip force, targets from a design with
-// 0.6 times its radii. Newton gets 6 iterations per load step, the budget of
-// `rodmesh simulate --max-iter 6`, for the optimizer's solves and the
-// re-solves alike. Warm-started from the previous design's equilibrium (the
-// optimizer's continuation) that is plenty; from rest, the thin designs' large
-// deflection is out of its reach (0.7 times the radii and less fail), the
-// thicker ones are not. So the optimizer follows the radii down to designs it
-// cannot re-solve from rest, and an earlier design must be archived. (With
+// The case (testutil::fallbackCase): a cantilever bent far by a tip force,
+// targets from a design with 0.6 times its radii, Newton limited to 6
+// iterations per load step (the budget of `rodmesh simulate --max-iter 6`)
+// for the optimizer's solves and the re-solves alike. Warm-started from the
+// previous design's equilibrium (the optimizer's continuation) that is
+// plenty; from rest, the thin designs' large deflection is out of its reach,
+// the thicker ones' is not. So the optimizer follows the radii down to designs
+// it cannot re-solve from rest, and an earlier design must be archived. (With
 // the default budget, 100 iterations per load step, we found no small scene
 // whose optimized design fails from rest; the design study's Smiley, 2663
 // vertices, is one: benchmarks/results/design_study.md.)
@@ -25,10 +25,13 @@
 namespace rodmesh {
 namespace {
 
-NewtonOptions shortNewton() {
-  NewtonOptions o;
-  o.maxIterations = 6;
-  return o;
+// A reduced run of `iterations` iterations with these Newton options.
+DesignOptimizerResult reducedRun(SceneModel& model, const DesignSpace& space, int iterations,
+                                 const NewtonOptions& newton) {
+  DesignOptimizerOptions o;
+  o.maxIterations = iterations;
+  o.newton = newton;
+  return optimizeReduced(model, space, o);
 }
 
 // What acceptance does with an archive: a scene carrying the archived rest
@@ -77,10 +80,8 @@ TEST(DesignFallback, FinalDesignThatResolvesFromRestIsArchived) {
   testutil::setScaledRadiiTargets(s, 0.9);
   SceneModel model(s);
   const DesignSpace space(s, model.effects());
-  DesignOptimizerOptions o;
-  o.maxIterations = 10;
-  const DesignOptimizerResult r = optimizeReduced(model, space, o);
-  const ArchivedDesign a = chooseArchivedDesign(model, space, r, o.newton);
+  const DesignOptimizerResult r = reducedRun(model, space, 10, NewtonOptions{});
+  const ArchivedDesign a = chooseArchivedDesign(model, space, r, NewtonOptions{});
   EXPECT_FALSE(a.fallback);
   EXPECT_TRUE(a.allConverged);
   EXPECT_TRUE(a.note.empty()) << a.note;
@@ -89,14 +90,11 @@ TEST(DesignFallback, FinalDesignThatResolvesFromRestIsArchived) {
 }
 
 TEST(DesignFallback, ReducedRunArchivesTheBestEarlierDesignThatResolvesFromRest) {
-  Scene s = testutil::bentCantilever(2e-3);
-  testutil::setScaledRadiiTargets(s, 0.6);
+  const Scene s = testutil::fallbackCase();
+  const NewtonOptions newton = testutil::fallbackCaseNewton();
   SceneModel model(s);
   const DesignSpace space(s, model.effects());
-  DesignOptimizerOptions o;
-  o.maxIterations = 60;
-  o.newton = shortNewton();
-  const DesignOptimizerResult r = optimizeReduced(model, space, o);
+  const DesignOptimizerResult r = reducedRun(model, space, 60, newton);
   SCOPED_TRACE(r.status.message);
   ASSERT_NE(r.status.outcome, Outcome::NumericalFailure);
   ASSERT_FALSE(r.fallbacks.empty());
@@ -105,9 +103,9 @@ TEST(DesignFallback, ReducedRunArchivesTheBestEarlierDesignThatResolvesFromRest)
   // The premise: the optimizer got further on its own equilibria than a
   // solve from rest can follow.
   EXPECT_LT(r.rms, 0.5 * r.initialRms);
-  ASSERT_FALSE(resimulate(s, r.design, o.newton).allConverged);
+  ASSERT_FALSE(resimulate(s, r.design, newton).allConverged);
 
-  const ArchivedDesign a = chooseArchivedDesign(model, space, r, o.newton);
+  const ArchivedDesign a = chooseArchivedDesign(model, space, r, newton);
   SCOPED_TRACE(a.note);
   ASSERT_TRUE(a.fallback);
   ASSERT_TRUE(a.allConverged);
@@ -125,7 +123,7 @@ TEST(DesignFallback, ReducedRunArchivesTheBestEarlierDesignThatResolvesFromRest)
     EXPECT_EQ(d.radii[v], a.design.radii[v]);
     EXPECT_EQ(d.restPositions[v], a.design.restPositions[v]);
   }
-  const SimulationResult check = resimulate(s, a.design, o.newton);
+  const SimulationResult check = resimulate(s, a.design, newton);
   ASSERT_TRUE(check.allConverged);
   EXPECT_LT(maxDistance(check.poses[0].positions, a.simulation.poses[0].positions), 1e-8);
   EXPECT_NEAR(*check.poses[0].rmsError, a.rms, 1e-12);

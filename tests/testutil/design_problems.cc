@@ -57,18 +57,34 @@ Scene withDesign(const Scene& s, const Design& d) {
   return out;
 }
 
-Scene bentCantilever(double force) {
-  Scene s = cantilever(20, 0.2, 0.001, 0.001, Vec3::UnitZ());
-  s.sourcePath = "<bent cantilever>";
-  s.poses[0].name = "bend";
-  s.poses[0].forces.push_back({tipVertex(s), Vec3(0.0, force, 0.0)});
+void freeRadii(Scene& s) {
   s.design.present = true;
   s.design.radii = true;
   s.design.hasRadiusBounds = true;
   s.design.radiusMin = 0.0005;
   s.design.radiusMax = 0.002;
   s.design.controlPointsPerRod = 4;
+}
+
+Scene bentCantilever(double force) {
+  Scene s = cantilever(20, 0.2, 0.001, 0.001, Vec3::UnitZ());
+  s.sourcePath = "<bent cantilever>";
+  s.poses[0].name = "bend";
+  s.poses[0].forces.push_back({tipVertex(s), Vec3(0.0, force, 0.0)});
+  freeRadii(s);
   return s;
+}
+
+Scene fallbackCase() {
+  Scene s = bentCantilever(2e-3);
+  setScaledRadiiTargets(s, 0.6);
+  return s;
+}
+
+NewtonOptions fallbackCaseNewton() {
+  NewtonOptions o;
+  o.maxIterations = 6;
+  return o;
 }
 
 }  // namespace rodmesh::testutil
