@@ -111,6 +111,16 @@ std::string formatSeconds(double s) {
   return buf;
 }
 
+PoseSolveSummary newtonSolveSummary(const PoseResult& pr) {
+  PoseSolveSummary sum;
+  sum.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
+  sum.residualNorm = pr.report.residualNorm;
+  sum.iterations = pr.report.iterations;
+  sum.timeSeconds = pr.report.timeSeconds;
+  if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
+  return sum;
+}
+
 Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace& space,
                         const DesignOptimizerResult& r, const ArchivedDesign& chosen, const std::string& method) {
   const Design& design = chosen.design;
@@ -122,14 +132,8 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
   a.initialRadii = toRows(space.toDesign(space.initialControls(scene)).radii);
   for (int p = 0; p < model.numPoses(); ++p) {
     const PoseResult& pr = chosen.simulation.poses[p];
-    PoseSolveSummary sum;
-    sum.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
-    sum.residualNorm = pr.report.residualNorm;
-    sum.iterations = pr.report.iterations;
-    sum.timeSeconds = pr.report.timeSeconds;
-    if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
     ArchivePose ap = makeArchivePose(pr.name, pr.positions, model.effects().has(Effect::Twist) ? &pr.twist : nullptr,
-                                     scene.poses[p].target, sum);
+                                     scene.poses[p].target, newtonSolveSummary(pr));
     // The optimizer's own equilibria exist for its final design only; a
     // fallback design's are not kept, and neither is its gap. Without
     // equilibria of the initial design (the run failed before them), the

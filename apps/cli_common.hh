@@ -8,6 +8,7 @@
 #include "model/network.hh"
 #include "solver/design_fallback.hh"
 #include "solver/design_optimizer.hh"
+#include "solver/equilibrium.hh"
 
 #include <Eigen/Core>
 
@@ -36,6 +37,10 @@ struct PoseSolveSummary {
   double timeSeconds = 0.0;
   int outOfPlaneStable = -1;  // 1/0 for planar Newton solves, -1 unknown (not written)
 };
+
+// The summary of a pose solved by Newton (simulateAll): non-finite loads or
+// states, and problems without a solution, fail.
+PoseSolveSummary newtonSolveSummary(const PoseResult& pr);
 
 // Row-per-entry matrices for the archive.
 MatX3 toRows(const std::vector<Vec3>& v);

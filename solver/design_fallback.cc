@@ -1,11 +1,12 @@
 #include "solver/design_fallback.hh"
 
-#include "solver/design_optimizer.hh"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
+
+#include "solver/design_optimizer.hh"
 
 namespace rodmesh {
 namespace {
@@ -97,7 +98,12 @@ ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space,
     const FallbackDesign& f = candidates[c];
     const bool isInitial = tryInitial && c + 1 == candidates.size();
     const Design d = space.toDesign(f.controls);
-    SimulationResult sim = simulateAll(model, d, newton);
+    SimulationResult sim;
+    try {
+      sim = simulateAll(model, d, newton);
+    } catch (const std::exception&) {
+      sim.allConverged = false;  // a design the model rejects is one more that does not re-solve
+    }
     if (!sim.allConverged) {
       ++failed;
       continue;
@@ -123,9 +129,9 @@ ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space,
       skipped += "; " + std::to_string(worse) + " better design" + (worse > 1 ? "s" : "") +
                  " re-solved from rest worse than the initial design";
     out.note = "the final design (" + millimetres(result.rms) +
-               " on the optimizer's equilibria) could not be re-solved from rest (" + finalFailure +
-               "); archived " + f.label + " (RMS " + millimetres(rms) + " re-solved from rest, " +
-               millimetres(f.rms) + " on the optimizer's equilibria), the best earlier design that re-solves from rest" + skipped;
+               " on the optimizer's equilibria) could not be re-solved from rest (" + finalFailure + "); archived " +
+               f.label + " (RMS " + millimetres(rms) + " re-solved from rest, " + millimetres(f.rms) +
+               " on the optimizer's equilibria), the best earlier design that re-solves from rest" + skipped;
     return out;
   }
   if (!tryInitial)

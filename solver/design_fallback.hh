@@ -13,12 +13,12 @@
 // optimizer").
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include "model/design_space.hh"
 #include "solver/equilibrium.hh"
 #include "solver/newton.hh"
-
-#include <string>
-#include <vector>
 
 namespace rodmesh {
 

@@ -2,14 +2,14 @@
 // the design chosen for the archive re-solves from rest, in a run whose final
 // design cannot be (testutil::fallbackCase: the thin design the targets call
 // for is out of reach from rest under its Newton budget).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
 #include "model/design_space.hh"
 #include "nlp/sand.hh"
 #include "solver/design_fallback.hh"
 #include "tests/testutil/design_problems.hh"
-
-#include <gtest/gtest.h>
-
-#include <cmath>
 
 namespace rodmesh {
 namespace {

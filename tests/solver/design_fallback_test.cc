@@ -13,14 +13,15 @@
 // the default budget, 100 iterations per load step, we found no small scene
 // whose optimized design fails from rest; the design study's Smiley, 2663
 // vertices, is one: benchmarks/results/design_study.md.)
-#include "model/design_space.hh"
 #include "solver/design_fallback.hh"
-#include "solver/design_optimizer.hh"
-#include "tests/testutil/design_problems.hh"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+
+#include "model/design_space.hh"
+#include "solver/design_optimizer.hh"
+#include "tests/testutil/design_problems.hh"
 
 namespace rodmesh {
 namespace {
