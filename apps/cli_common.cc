@@ -111,4 +111,79 @@ std::string formatSeconds(double s) {
   return buf;
 }
 
+PoseSolveSummary newtonSolveSummary(const PoseResult& pr) {
+  PoseSolveSummary sum;
+  sum.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
+  sum.residualNorm = pr.report.residualNorm;
+  sum.iterations = pr.report.iterations;
+  sum.timeSeconds = pr.report.timeSeconds;
+  if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
+  return sum;
+}
+
+Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace& space,
+                        const DesignOptimizerResult& r, const ArchivedDesign& chosen, const std::string& method) {
+  const Design& design = chosen.design;
+  Archive a;
+  a.command = "optimize";
+  a.sceneJson = scene.sourceText;
+  describeModel(a, model.network(), model.effects(), model.numPoses() > 0 ? model.pose(0).numDofs() : 0);
+  setRestAndRadii(a, design.restPositions, design.radii);
+  a.initialRadii = toRows(space.toDesign(space.initialControls(scene)).radii);
+  for (int p = 0; p < model.numPoses(); ++p) {
+    const PoseResult& pr = chosen.simulation.poses[p];
+    ArchivePose ap = makeArchivePose(pr.name, pr.positions, model.effects().has(Effect::Twist) ? &pr.twist : nullptr,
+                                     scene.poses[p].target, newtonSolveSummary(pr));
+    // The optimizer's own equilibria exist for its final design only; a
+    // fallback design's are not kept, and neither is its gap. Without
+    // equilibria of the initial design (the run failed before them), the
+    // re-solved positions stand in.
+    std::vector<Vec3> own = pr.positions;
+    if (!chosen.fallback && p < static_cast<int>(r.states.size()) &&
+        r.states[p].u.size() == model.pose(p).numDofs()) {
+      model.pose(p).setState(r.states[p]);
+      own = model.pose(p).positions(r.states[p].u, design);
+    }
+    setOptimizeResult(ap, r.initialPositions.size() > static_cast<std::size_t>(p) ? r.initialPositions[p] : pr.positions,
+                      own);
+    if (chosen.fallback) ap.equilibriumGap.reset();
+    a.poses.push_back(std::move(ap));
+  }
+  ArchiveHistory h;
+  for (const DesignIterate& it : r.history) {
+    h.iteration.push_back(it.iteration);
+    h.timeSeconds.push_back(it.elapsed);
+    h.objective.push_back(it.objective);
+    h.rmsError.push_back(it.rms);
+    h.level.push_back(it.level);
+    h.constraintViolation.push_back(it.constraintViolation);
+    h.gradientNorm.push_back(it.gradientNorm);
+    h.phase.push_back(it.phase);
+  }
+  a.history = h;
+  ArchiveControlPoints cp;
+  cp.radii = chosen.controls.radii;
+  cp.restDisplacement = chosen.controls.displacement;
+  for (const ControlPoint& c : space.controlPoints()) {
+    cp.rod.push_back(c.rod);
+    cp.arcFraction.push_back(c.arcFraction);
+    cp.vertex.push_back(c.vertex);
+  }
+  a.controlPoints = cp;
+  ArchiveOptimizeSummary s;
+  s.method = method;
+  s.iterations = r.iterations;
+  s.timeSeconds = r.timeSeconds;
+  s.message = r.status.message;
+  s.evaluationSeconds = r.evaluationSeconds;
+  s.solverSeconds = r.solverSeconds;
+  s.peakMemoryBytes = r.peakMemoryBytes;
+  if (!chosen.note.empty()) s.message += "; " + chosen.note;
+  a.optimize = s;
+  a.extraRootAttributes["archived_design"] = chosen.fallback ? chosen.label : "final";
+  const bool converged = r.status.converged() && chosen.allConverged && !chosen.fallback;
+  a.status = converged ? "converged" : (r.status.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
+  return a;
+}
+
 }  // namespace rodmesh::cli

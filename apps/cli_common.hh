@@ -3,8 +3,12 @@
 
 #include "io/archive.hh"
 #include "io/scene_reader.hh"
+#include "model/design_space.hh"
 #include "model/effects.hh"
 #include "model/network.hh"
+#include "solver/design_fallback.hh"
+#include "solver/design_optimizer.hh"
+#include "solver/equilibrium.hh"
 
 #include <Eigen/Core>
 
@@ -34,6 +38,10 @@ struct PoseSolveSummary {
   int outOfPlaneStable = -1;  // 1/0 for planar Newton solves, -1 unknown (not written)
 };
 
+// The summary of a pose solved by Newton (simulateAll): non-finite loads or
+// states, and problems without a solution, fail.
+PoseSolveSummary newtonSolveSummary(const PoseResult& pr);
+
 // Row-per-entry matrices for the archive.
 MatX3 toRows(const std::vector<Vec3>& v);
 MatX2 toRows(const std::vector<Vec2>& v);
@@ -53,6 +61,18 @@ ArchivePose makeArchivePose(const std::string& name, const std::vector<Vec3>& po
 // and the re-solved `positions` already in the pose (m).
 void setOptimizeResult(ArchivePose& p, const std::vector<Vec3>& initialPositions,
                        const std::vector<Vec3>& optimizerPositions);
+
+// optimize: the archive of a run (all but `version` and method-specific
+// extension attributes): the design `chosen` (chooseArchivedDesign,
+// solver/design_fallback.hh) with its rest shape, radii and control points,
+// every pose as re-solved from rest under it, with the equilibrium under the
+// initial design and, for the final design, the gap to the optimizer's own
+// equilibrium; the optimizer's history and summary, `chosen.note` appended to
+// its message; root attribute `archived_design`. Status: converged when the
+// optimizer converged and the final design re-solved; failed after a
+// numerical failure; otherwise not_converged. `method`: sand or reduced.
+Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace& space,
+                        const DesignOptimizerResult& r, const ArchivedDesign& chosen, const std::string& method);
 
 // Contract §3 RMS error over every pose and vertex, in m; nullopt unless every
 // pose has a target.

@@ -2,7 +2,8 @@
 // optimization (../shared/contracts.md §2 and §4). Finds the radii and rest
 // shape (design.parameters) for which every pose's equilibrium reproduces its
 // target, archives the design, its control points, the history, and every
-// pose re-solved from scratch under the final design.
+// pose re-solved from scratch under the final design (or, when that fails,
+// under the best earlier design that re-solves: solver/design_fallback.hh).
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -12,6 +13,7 @@
 #include "apps/commands.hh"
 #include "io/interrupt.hh"
 #include "model/design_space.hh"
+#include "solver/design_fallback.hh"
 #include "solver/design_optimizer.hh"
 #include "solver/equilibrium.hh"
 #ifdef RODMESH_HAVE_NLP
@@ -190,82 +192,32 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     }
 
     // Never report a design from the optimizer's own equilibria: re-solve
-    // every pose from scratch (Newton from rest) under the final design.
-    const Design& design = r.design;
-    const Design initial = space.toDesign(space.initialControls(scene));
-    Archive a;
+    // every pose from scratch (Newton from rest) under the final design or,
+    // when a pose cannot be, under the best earlier design that can
+    // (solver/design_fallback.hh).
+    const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, o.optimizer.newton);
+    if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
+    Archive a = optimizeArchive(scene, model, space, r, chosen, o.method);
     a.version = versionString();
-    a.command = "optimize";
-    a.sceneJson = scene.sourceText;
-    describeModel(a, model.network(), model.effects(), model.numPoses() > 0 ? model.pose(0).numDofs() : 0);
-    setRestAndRadii(a, design.restPositions, design.radii);
-    a.initialRadii = toRows(initial.radii);
-    bool allSolved = true;
-    const SimulationResult sim = simulateAll(model, design, o.optimizer.newton);
-    for (int p = 0; p < model.numPoses(); ++p) {
-      const PoseResult& pr = sim.poses[p];
-      PoseSolveSummary sum;
-      sum.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
-      sum.residualNorm = pr.report.residualNorm;
-      sum.iterations = pr.report.iterations;
-      sum.timeSeconds = pr.report.timeSeconds;
-      if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
-      allSolved = allSolved && pr.report.converged;
-      ArchivePose ap = makeArchivePose(pr.name, pr.positions, model.effects().has(Effect::Twist) ? &pr.twist : nullptr,
-                                       scene.poses[p].target, sum);
-      std::vector<Vec3> own = pr.positions;
-      if (p < static_cast<int>(r.states.size()) && r.states[p].u.size() == model.pose(p).numDofs()) {
-        model.pose(p).setState(r.states[p]);
-        own = model.pose(p).positions(r.states[p].u, design);
-      }
-      setOptimizeResult(ap, r.initialPositions.size() > static_cast<std::size_t>(p) ? r.initialPositions[p] : pr.positions,
-                        own);
-      if (!quiet) {
-        std::fprintf(stderr, "pose %d '%s': re-solved from rest: %s, RMS %.4f mm (initial design %.4f mm), gap to the "
-                     "optimizer's equilibrium %.3e m\n",
-                     p, pr.name.c_str(), sum.status.c_str(), ap.rmsError.value_or(0.0) * 1e3,
-                     rmsError(r.initialPositions[p], scene.poses[p].target) * 1e3, ap.equilibriumGap.value_or(0.0));
-        if (!pr.report.converged) std::cerr << "  reason: " << pr.report.message << "\n";
-      }
-      a.poses.push_back(std::move(ap));
-    }
-    ArchiveHistory h;
-    for (const DesignIterate& it : r.history) {
-      h.iteration.push_back(it.iteration);
-      h.timeSeconds.push_back(it.elapsed);
-      h.objective.push_back(it.objective);
-      h.rmsError.push_back(it.rms);
-      h.level.push_back(it.level);
-      h.constraintViolation.push_back(it.constraintViolation);
-      h.gradientNorm.push_back(it.gradientNorm);
-      h.phase.push_back(it.phase);
-    }
-    a.history = h;
-    ArchiveControlPoints cp;
-    cp.radii = MatX2(r.controls.radii.rows(), 2);
-    cp.radii = r.controls.radii;
-    cp.restDisplacement = MatX3(r.controls.displacement.rows(), 3);
-    cp.restDisplacement = r.controls.displacement;
-    for (const ControlPoint& c : space.controlPoints()) {
-      cp.rod.push_back(c.rod);
-      cp.arcFraction.push_back(c.arcFraction);
-      cp.vertex.push_back(c.vertex);
-    }
-    a.controlPoints = cp;
-    ArchiveOptimizeSummary s;
-    s.method = o.method;
-    s.iterations = r.iterations;
-    s.timeSeconds = r.timeSeconds;
-    s.message = r.status.message;
-    s.evaluationSeconds = r.evaluationSeconds;
-    s.solverSeconds = r.solverSeconds;
-    s.peakMemoryBytes = r.peakMemoryBytes;
-    if (!allSolved) s.message += "; a pose did not converge when re-solved from rest under the final design";
-    a.optimize = s;
     if (o.method == "reduced")
       a.extraRootAttributes["design_derivatives"] = designDerivativesName(o.optimizer.designDerivatives);
-    const bool converged = r.status.converged() && allSolved;
-    a.status = converged ? "converged" : (r.status.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
+    if (!quiet) {
+      for (std::size_t p = 0; p < a.poses.size(); ++p) {
+        const ArchivePose& ap = a.poses[p];
+        const double initialRms =
+            ap.initialPositions.rows() > 0 && ap.target.rows() == ap.initialPositions.rows()
+                ? std::sqrt((ap.initialPositions - ap.target).squaredNorm() / static_cast<double>(ap.target.rows()))
+                : 0.0;
+        std::fprintf(stderr, "pose %zu '%s': re-solved from rest under %s: %s, RMS %.4f mm (initial design %.4f mm)", p,
+                     ap.name.c_str(), chosen.label.c_str(), ap.status.c_str(), ap.rmsError.value_or(0.0) * 1e3,
+                     initialRms * 1e3);
+        if (ap.equilibriumGap) std::fprintf(stderr, ", gap to the optimizer's equilibrium %.3e m", *ap.equilibriumGap);
+        std::cerr << "\n";
+        const NewtonReport& rep = chosen.simulation.poses[p].report;
+        if (!rep.converged) std::cerr << "  reason: " << rep.message << "\n";
+      }
+    }
+    const bool converged = a.status == "converged";
     const std::optional<double> rms = overallRmsError(a);
     writeArchive(a, o.output);
     uninstallInterruptFlag();

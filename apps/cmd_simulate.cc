@@ -267,13 +267,7 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
     } else {
       a.extraRootAttributes["solver"] = "newton";
       auto progress = [&](int p, const PoseResult& pr) {
-        PoseSolveSummary solve;
-        // Non-finite loads or states, and problems without a solution, fail.
-        solve.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
-        solve.iterations = pr.report.iterations;
-        solve.residualNorm = pr.report.residualNorm;
-        solve.timeSeconds = pr.report.timeSeconds;
-        if (pr.outOfPlaneStable) solve.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
+        const PoseSolveSummary solve = newtonSolveSummary(pr);
         char details[256];
         std::snprintf(details, sizeof details, "%d Newton iterations, %d load steps, relative residual %.1e",
                       pr.report.iterations, pr.report.loadSteps, pr.report.relativeResidual);

@@ -12,7 +12,9 @@
 // design and equilibria. After every phase the poses are re-solved by Newton
 // from Ipopt's positions under Ipopt's design; the phase's design is kept only
 // if those equilibria exist and the objective did not rise, so the result is
-// always the best design found, with true equilibria.
+// always the best design found, with true equilibria. The kept phase designs
+// are the run's fallbacks (solver/design_fallback.hh) should the final one not
+// re-solve from rest.
 #pragma once
 
 #include "solver/design_optimizer.hh"

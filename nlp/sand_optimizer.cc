@@ -394,6 +394,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   std::vector<PoseState> rawStates = states;  // Ipopt's own equilibria of the kept design
   std::vector<double> warmLambda;             // the kept phase's constraint multipliers
   double warmObjectiveScale = 1.0;            // and its objective scale f_s
+  DesignFallbacks fallbacks;                  // the kept phase designs (solver/design_fallback.hh)
 
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignPhase& phase = steps[ph].phase;
@@ -538,6 +539,9 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
           states = polished;
           rawStates = raw;
           kept = true;
+          fallbacks.add(cand, f, res.rms,
+                        "the design kept at the end of " + describeStep(steps[ph]) + " (iteration " +
+                            std::to_string(iterations) + ")");
           // Multipliers for the next phase: Ipopt's final ones, if that is
           // the point kept.
           if (c == 0 && haveFinal && tnlp->finalMultipliers().size() == static_cast<std::size_t>(nlp.numConstraints())) {
@@ -591,6 +595,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   }
   res.iterations = iterations;
   res.states = rawStates;
+  res.fallbacks = fallbacks.designs();
   return finish(stop, message);
 }
 

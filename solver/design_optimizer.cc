@@ -275,6 +275,11 @@ const char* phaseName(const DesignPhase& ph) {
   return ph.radii ? "radii" : "rest_shape";
 }
 
+std::string describeStep(const DesignStep& step) {
+  return std::string(phaseName(step.phase)) +
+         (step.round > 0 ? " round " + std::to_string(step.round) : " level " + std::to_string(step.phase.level));
+}
+
 Eigen::VectorXd designVariableScale(const DesignSpace& space, const DesignPhase& ph, const Scene& scene) {
   Eigen::VectorXd lo, hi;
   space.bounds(ph, lo, hi);
@@ -366,6 +371,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   std::string message = "schedule completed";
   int iterations = 0;
   double roundStart = res.objective;  // objective at the start of the current round
+  DesignFallbacks fallbacks;          // accepted iterates and phase ends (solver/design_fallback.hh)
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignPhase& phase = steps[ph].phase;
     const int round = steps[ph].round;
@@ -405,9 +411,14 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     bo.minStep = 1e-9;
     bo.maxStepLimit = 10.0;
     BfgsCallbacks cb;
-    cb.accepted = [&](const Eigen::VectorXd& y) { ro.accept(y.cwiseProduct(s)); };
+    Eigen::VectorXd acceptedZ;  // the last accepted point (progress follows accepted)
+    cb.accepted = [&](const Eigen::VectorXd& y) {
+      acceptedZ = y.cwiseProduct(s);
+      ro.accept(acceptedZ);
+    };
     cb.stopRequested = opt.stopRequested;
     const int base = iterations;
+    const std::string stepName = describeStep(steps[ph]);
     cb.progress = [&](const BfgsIterate& it) {
       if (it.iteration == 0) return;  // the phase's start is the previous phase's end
       DesignIterate di;
@@ -421,6 +432,9 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       di.elapsed = since(t0);
       di.evaluations = it.evaluations;
       res.history.push_back(di);
+      if (acceptedZ.size() > 0)
+        fallbacks.add(space.unpack(phase, acceptedZ, res.controls), di.objective, di.rms,
+                      "the design of " + stepName + ", iteration " + std::to_string(di.iteration));
       if (progress) progress(di);
     };
     auto fobj = [&](const Eigen::VectorXd& y, double& f, Eigen::VectorXd* g) {
@@ -441,6 +455,8 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       double f;
       if (ro.evaluate(br.x.cwiseProduct(s), f, nullptr)) ro.accept(br.x.cwiseProduct(s));
       res.rms = objective.rms(ro.lastSumSquared());
+      fallbacks.add(res.controls, res.objective, res.rms,
+                    "the design at the end of " + stepName + " (iteration " + std::to_string(iterations) + ")");
     }
     states = ro.warmStates();
     const Outcome o = br.status.outcome;
@@ -493,6 +509,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     }
     res.states = ro.warmStates();
   }
+  res.fallbacks = fallbacks.designs();
   res.iterations = iterations;
   res.status = {stop, message};
   res.timeSeconds = since(t0);

@@ -25,6 +25,7 @@
 #include "model/design_space.hh"
 #include "model/outcome.hh"
 #include "solver/bfgs.hh"
+#include "solver/design_fallback.hh"
 #include "solver/equilibrium.hh"
 #include "solver/newton.hh"
 
@@ -128,6 +129,10 @@ struct DesignOptimizerResult {
   double solverSeconds = 0.0;           // in the optimizer itself (SAND: Ipopt and MUMPS)
   long peakMemoryBytes = 0;             // peak resident memory of the process at the end
   std::vector<DesignIterate> history;   // starts with iteration 0 (initial design)
+  // Earlier accepted designs, best objective first, the initial one not
+  // included (solver/design_fallback.hh): the reduced method's accepted
+  // iterates and phase ends, SAND's kept phase designs.
+  std::vector<FallbackDesign> fallbacks;
 };
 
 // The phases of a schedule (paper: radii level by level, then rounds of rest
@@ -140,6 +145,8 @@ struct DesignStep {
 std::vector<DesignStep> designSchedule(const Scene& scene, const DesignSpace& space,
                                        const DesignOptimizerOptions& options);
 const char* phaseName(const DesignPhase& phase);
+// "radii level 1", "rest_shape round 2" or "joint level 2", for messages.
+std::string describeStep(const DesignStep& step);
 // Scale of each free variable of a phase (radii: the bound range;
 // displacements: a tenth of the mean rod length), so that optimizer steps
 // are comparable across kinds.

@@ -7,9 +7,15 @@
 // targets are the equilibria of a hidden design whose radii grow linearly
 // across the sheet (r_t 1.1 to 2.7 mm, r_n 1.1 to 2.3 mm), representable by the
 // control points; the scene's own radii are the uniform default (2 mm).
+#include "apps/cli_common.hh"
 #include "io/archive.hh"
+#include "io/scene_writer.hh"
+#include "model/design_space.hh"
+#include "solver/design_fallback.hh"
+#include "solver/design_optimizer.hh"
 
 #include "tests/cli/cli_util.hh"
+#include "tests/testutil/design_problems.hh"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
@@ -46,6 +52,19 @@ class OptimizeCli : public ::testing::Test {
   }
   std::vector<std::string> files() const { return clitest::listFiles(dir_); }
   void checkRecovery(const std::string& args, const std::string& method);
+  // Writes `out`: the scene file `scene` carrying the rest positions and
+  // radii of archive `a`, without its design block (what acceptance
+  // re-simulates).
+  void writeResimulationScene(const std::string& scene, const Archive& a, const std::string& out) const {
+    nlohmann::json j = nlohmann::json::parse(clitest::readText(path(scene)));
+    j.erase("design");
+    j.erase("radius");
+    for (std::size_t v = 0; v < j["vertices"].size(); ++v) {
+      j["vertices"][v] = {a.restPositions(v, 0), a.restPositions(v, 1), a.restPositions(v, 2)};
+      j["radii"][v] = {a.radii(v, 0), a.radii(v, 1)};
+    }
+    clitest::writeText(path(out), j.dump());
+  }
   std::string dir_;
 };
 
@@ -122,14 +141,7 @@ void OptimizeCli::checkRecovery(const std::string& args, const std::string& meth
 
   // Acceptance-style check: a scene carrying the archived rest positions and
   // radii, simulated from scratch, reproduces the archived positions.
-  nlohmann::json scene = nlohmann::json::parse(clitest::readText(path("scene.json")));
-  scene.erase("design");
-  scene.erase("radius");
-  for (std::size_t v = 0; v < scene["vertices"].size(); ++v) {
-    scene["vertices"][v] = {a.restPositions(v, 0), a.restPositions(v, 1), a.restPositions(v, 2)};
-    scene["radii"][v] = {a.radii(v, 0), a.radii(v, 1)};
-  }
-  clitest::writeText(path("check.json"), scene.dump());
+  writeResimulationScene("scene.json", a, "check.json");
   ASSERT_EQ(run("simulate check.json -o check.h5", &err), 0) << err;
   const Archive s = readArchive(path("check.h5"));
   for (std::size_t p = 0; p < a.poses.size(); ++p) {
@@ -137,6 +149,61 @@ void OptimizeCli::checkRecovery(const std::string& args, const std::string& meth
     ASSERT_TRUE(a.poses[p].equilibriumGap.has_value());
     EXPECT_LT(*a.poses[p].equilibriumGap, 1e-6);
   }
+  EXPECT_EQ(rootStringAttribute(path("out.h5"), "archived_design"), "final");
+}
+
+// A run whose final design cannot be re-solved from rest
+// (testutil::fallbackCase: Newton limited to 6 iterations per load step for
+// the optimizer and the re-solves alike; no small scene fails with the
+// default budget, so this runs in-process): the archive `rodmesh optimize`
+// builds from it (cli::optimizeArchive) holds an earlier design, says so, is
+// self-consistent, and `rodmesh simulate --max-iter 6` (the same budget) on a
+// scene carrying its rest positions and radii reproduces its positions.
+TEST_F(OptimizeCli, AnEarlierDesignIsArchivedWhenTheFinalOneCannotBeResolvedFromRest) {
+  const Scene s = testutil::fallbackCase();
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  DesignOptimizerOptions o;
+  o.maxIterations = 60;
+  o.newton = testutil::fallbackCaseNewton();
+  const DesignOptimizerResult r = optimizeReduced(model, space, o);
+  const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, o.newton);
+  ASSERT_TRUE(chosen.fallback) << chosen.note;
+  Archive a = cli::optimizeArchive(s, model, space, r, chosen, "reduced");
+  a.version = "test";
+  writeArchive(a, path("out.h5"));
+  a = readArchive(path("out.h5"));
+
+  // Exit 1 (the command's status is its exit: 0 only when converged).
+  EXPECT_EQ(a.status, "not_converged");
+  ASSERT_TRUE(a.optimize.has_value());
+  EXPECT_NE(a.optimize->message.find("could not be re-solved from rest"), std::string::npos) << a.optimize->message;
+  EXPECT_NE(a.optimize->message.find(chosen.label), std::string::npos) << a.optimize->message;
+  EXPECT_EQ(rootStringAttribute(path("out.h5"), "archived_design"), chosen.label);
+  // The archive is the fallback design's throughout; the history stays the
+  // optimizer's.
+  ASSERT_TRUE(a.controlPoints.has_value());
+  EXPECT_EQ(Eigen::MatrixXd(a.controlPoints->radii), chosen.controls.radii);
+  const Design d = space.toDesign(chosen.controls);
+  ASSERT_EQ(a.radii.rows(), d.numVertices());
+  for (int v = 0; v < d.numVertices(); ++v) {
+    EXPECT_EQ(Vec2(a.radii.row(v).transpose()), d.radii[v]);
+    EXPECT_EQ(Vec3(a.restPositions.row(v).transpose()), d.restPositions[v]);
+  }
+  ASSERT_TRUE(a.history.has_value());
+  EXPECT_EQ(a.history->objective.size(), r.history.size());
+  ASSERT_EQ(a.poses.size(), 1u);
+  EXPECT_EQ(a.poses[0].status, "converged");
+  EXPECT_FALSE(a.poses[0].equilibriumGap.has_value()) << "a fallback's optimizer equilibria are not kept";
+  EXPECT_LE(rms(a.poses, false), rms(a.poses, true)) << "no worse than the initial design";
+
+  clitest::writeText(path("fallback.json"), sceneToJson(s));
+  writeResimulationScene("fallback.json", a, "check.json");
+  std::string err;
+  ASSERT_EQ(run("simulate check.json -o check.h5 --max-iter 6", &err), 0) << err;
+  const Archive c = readArchive(path("check.h5"));
+  ASSERT_EQ(c.poses.size(), 1u);
+  EXPECT_LT((c.poses[0].positions - a.poses[0].positions).cwiseAbs().maxCoeff(), 1e-8);
 }
 
 TEST_F(OptimizeCli, ReducedRecoversAHiddenDesignAndItsPositionsAreEquilibria) {

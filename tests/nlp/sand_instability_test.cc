@@ -8,6 +8,7 @@
 #include "nlp/sand.hh"
 #include "solver/design_optimizer.hh"
 #include "solver/equilibrium.hh"
+#include "tests/testutil/design_problems.hh"
 #include "tests/testutil/scenes.hh"
 
 #include <gtest/gtest.h>
@@ -32,31 +33,11 @@ double rmsFromRest(const Scene& scene, const Design& d, bool* converged) {
   return std::sqrt(ss / n);
 }
 
-// Targets: the equilibria, from rest, of the scene with its radii scaled.
-void setHiddenTargets(Scene& s, double radiusScale) {
-  Scene h = s;
-  for (Vec2& r : h.radii) r *= radiusScale;
-  SceneModel hm(h);
-  const SimulationResult sim = simulateAll(hm, Design::fromScene(h), NewtonOptions{});
-  ASSERT_TRUE(sim.allConverged);
-  for (std::size_t p = 0; p < s.poses.size(); ++p) s.poses[p].target = sim.poses[p].positions;
-}
-
 // Largest transverse (y) excursion of a pose's positions.
 double sway(const std::vector<Vec3>& x) {
   double m = 0.0;
   for (const Vec3& p : x) m = std::max(m, std::abs(p.y()));
   return m;
-}
-
-// Radii free within [0.5, 2] mm, 4 control points per rod.
-void freeRadii(Scene& s) {
-  s.design.present = true;
-  s.design.radii = true;
-  s.design.hasRadiusBounds = true;
-  s.design.radiusMin = 0.0005;
-  s.design.radiusMax = 0.002;
-  s.design.controlPointsPerRod = 4;
 }
 
 // A planar column: 20 edges over 0.2 m along +x, clamped at x = 0, radius
@@ -70,7 +51,7 @@ Scene column() {
   const double E = s.material.youngModulus, I = kPi * std::pow(0.001, 4) / 4.0, L = 0.2;
   const double P = 0.8 * kPi * kPi * E * I / (4.0 * L * L);
   s.poses[0].forces.push_back({testutil::tipVertex(s), Vec3(-P, 0.01 * P, 0.0)});
-  freeRadii(s);
+  testutil::freeRadii(s);
   return s;
 }
 
@@ -99,7 +80,7 @@ Scene arch(double force) {
   p.clamped = {{0}, {n}};
   p.forces.push_back({n / 2, Vec3(0.0, -force, 0.0)});
   s.poses.push_back(p);
-  freeRadii(s);
+  testutil::freeRadii(s);
   return s;
 }
 
@@ -155,7 +136,7 @@ class Instability : public testing::TestWithParam<Method> {};
 
 TEST_P(Instability, BuckledColumnTargets) {
   Scene s = column();
-  setHiddenTargets(s, 0.75);
+  testutil::setScaledRadiiTargets(s, 0.75);
   // The premise: the targets sway far more than the initial design does.
   SceneModel m(s);
   const SimulationResult initial = simulateAll(m, Design::fromScene(s), NewtonOptions{});
@@ -176,7 +157,7 @@ TEST_P(Instability, SnappedArchTargets) {
   // The premise: the hidden design snaps through, the initial one does not.
   ASSERT_LT(crownHeight(s, 0.8), 0.0);
   ASSERT_GT(crownHeight(s, 1.0), 0.0);
-  setHiddenTargets(s, 0.8);
+  testutil::setScaledRadiiTargets(s, 0.8);
   expectClean(s, GetParam(), true);
 }
 

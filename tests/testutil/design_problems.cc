@@ -1,6 +1,9 @@
 #include "tests/testutil/design_problems.hh"
 
+#include "solver/equilibrium.hh"
 #include "tests/testutil/scenes.hh"
+
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
@@ -35,6 +38,53 @@ Scene designNetwork(bool planar) {
   s.design.hasRadiusBounds = true;
   s.design.controlPointsPerRod = 4;
   return s;
+}
+
+void setScaledRadiiTargets(Scene& s, double radiusScale) {
+  Scene h = s;
+  for (Vec2& r : h.radii) r *= radiusScale;
+  SceneModel hm(h);
+  const SimulationResult sim = simulateAll(hm, Design::fromScene(h), NewtonOptions{});
+  EXPECT_TRUE(sim.allConverged) << "targets: the design with radii scaled by " << radiusScale;
+  for (std::size_t p = 0; p < s.poses.size(); ++p) s.poses[p].target = sim.poses[p].positions;
+}
+
+Scene withDesign(const Scene& s, const Design& d) {
+  Scene out = s;
+  out.vertices = d.restPositions;
+  out.radii = d.radii;
+  out.design = DesignSpec{};
+  return out;
+}
+
+void freeRadii(Scene& s) {
+  s.design.present = true;
+  s.design.radii = true;
+  s.design.hasRadiusBounds = true;
+  s.design.radiusMin = 0.0005;
+  s.design.radiusMax = 0.002;
+  s.design.controlPointsPerRod = 4;
+}
+
+Scene bentCantilever(double force) {
+  Scene s = cantilever(20, 0.2, 0.001, 0.001, Vec3::UnitZ());
+  s.sourcePath = "<bent cantilever>";
+  s.poses[0].name = "bend";
+  s.poses[0].forces.push_back({tipVertex(s), Vec3(0.0, force, 0.0)});
+  freeRadii(s);
+  return s;
+}
+
+Scene fallbackCase() {
+  Scene s = bentCantilever(2e-3);
+  setScaledRadiiTargets(s, 0.6);
+  return s;
+}
+
+NewtonOptions fallbackCaseNewton() {
+  NewtonOptions o;
+  o.maxIterations = 6;
+  return o;
 }
 
 }  // namespace rodmesh::testutil

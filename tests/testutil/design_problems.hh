@@ -2,7 +2,9 @@
 // tests.
 #pragma once
 
+#include "model/design.hh"
 #include "model/scene.hh"
+#include "solver/newton.hh"
 
 namespace rodmesh::testutil {
 
@@ -13,6 +15,33 @@ namespace rodmesh::testutil {
 // poses with different weights; radii and rest shape free, 4 control points
 // per rod. `planar`: everything in the xy plane (planar unknowns).
 Scene designNetwork(bool planar);
+
+// Sets every pose's target to its equilibrium, solved from rest with the
+// default Newton options, under the scene's design with all radii scaled by
+// radiusScale (uniform radii stay representable by the control points).
+void setScaledRadiiTargets(Scene& s, double radiusScale);
+
+// The scene acceptance re-simulates an optimize archive with: `s` carrying
+// the design's rest positions (as vertices) and radii, without its design block.
+Scene withDesign(const Scene& s, const Design& d);
+
+// Radii free within [0.5, 2] mm, 4 control points per rod.
+void freeRadii(Scene& s);
+
+// A cantilever of 20 edges over 0.2 m along +x (testutil::cantilever, radius
+// 1 mm, E = 1e7 Pa), clamped at x = 0 and bent far by a lateral tip force
+// (0, force, 0) N in its one pose "bend"; freeRadii. No targets.
+Scene bentCantilever(double force);
+
+// A run whose final design cannot be re-solved from rest
+// (solver/design_fallback.hh): bentCantilever(2e-3) with targets from 0.6
+// times its radii, and Newton limited to 6 iterations per load step
+// (fallbackCaseNewton; `rodmesh simulate --max-iter 6`) for the optimizer and
+// the re-solves alike. Warm starts from a nearby design's equilibrium
+// converge; from rest, radii of 0.8 times the initial ones and more converge,
+// 0.7 and less do not.
+Scene fallbackCase();
+NewtonOptions fallbackCaseNewton();
 
 // A small hexagonal sheet (meshing/grid, 2 x 2 cells, 0.06 m) clamped along
 // its left side; poses: "sag" (gravity), "lift" (right corner pulled and

@@ -1,0 +1,149 @@
+#include "solver/design_fallback.hh"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <limits>
+
+#include "solver/design_optimizer.hh"
+
+namespace rodmesh {
+namespace {
+
+std::string millimetres(double metres) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g mm", metres * 1e3);
+  return buf;
+}
+
+// Contract §3 RMS over every pose and vertex of a simulation (m).
+double simulationRms(const Scene& scene, const SimulationResult& sim) {
+  double ss = 0.0;
+  long n = 0;
+  for (std::size_t p = 0; p < sim.poses.size(); ++p) {
+    const std::vector<Vec3>& target = scene.poses[p].target;
+    const std::vector<Vec3>& x = sim.poses[p].positions;
+    if (target.size() != x.size()) continue;
+    for (std::size_t v = 0; v < x.size(); ++v) ss += (x[v] - target[v]).squaredNorm();
+    n += static_cast<long>(x.size());
+  }
+  return n > 0 ? std::sqrt(ss / static_cast<double>(n)) : 0.0;
+}
+
+// "pose 'NAME': why" for the first pose that did not converge.
+std::string firstFailure(const SimulationResult& sim) {
+  for (const PoseResult& p : sim.poses)
+    if (!p.report.converged) return "pose '" + p.name + "': " + p.report.message;
+  return "";
+}
+
+}  // namespace
+
+bool sameControls(const ControlValues& a, const ControlValues& b) {
+  return a.radii.rows() == b.radii.rows() && a.radii.cols() == b.radii.cols() &&
+         a.displacement.rows() == b.displacement.rows() && a.displacement.cols() == b.displacement.cols() &&
+         a.radii == b.radii && a.displacement == b.displacement;
+}
+
+void DesignFallbacks::add(const ControlValues& controls, double objective, double rms, const std::string& label) {
+  if (!std::isfinite(objective) || !std::isfinite(rms) || !controls.radii.allFinite() ||
+      !controls.displacement.allFinite())
+    return;
+  for (const FallbackDesign& d : designs_)
+    if (sameControls(d.controls, controls)) return;
+  const auto at = std::upper_bound(designs_.begin(), designs_.end(), objective,
+                                   [](double f, const FallbackDesign& d) { return f < d.objective; });
+  designs_.insert(at, FallbackDesign{controls, objective, rms, label});
+  if (static_cast<int>(designs_.size()) <= capacity_) return;
+  // Drop the design closest (by ratio of objectives) to the next better one.
+  auto logf = [](double f) { return std::log(std::max(f, 1e-300)); };
+  std::size_t drop = designs_.size() - 1;
+  double closest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 1; i < designs_.size(); ++i) {
+    const double gap = logf(designs_[i].objective) - logf(designs_[i - 1].objective);
+    if (gap < closest) {
+      closest = gap;
+      drop = i;
+    }
+  }
+  designs_.erase(designs_.begin() + static_cast<std::ptrdiff_t>(drop));
+}
+
+ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space, const DesignOptimizerResult& result,
+                                    const NewtonOptions& newton) {
+  const Scene& scene = model.scene();
+  ArchivedDesign out;
+  out.controls = result.controls;
+  out.design = result.design;
+  out.label = "the final design";
+  out.optimizerRms = result.rms;
+  out.simulation = simulateAll(model, out.design, newton);
+  out.allConverged = out.simulation.allConverged;
+  out.rms = simulationRms(scene, out.simulation);
+  if (out.allConverged) return out;
+
+  const std::string finalFailure = firstFailure(out.simulation);
+  std::vector<FallbackDesign> candidates;
+  for (const FallbackDesign& f : result.fallbacks)
+    if (!sameControls(f.controls, result.controls)) candidates.push_back(f);
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const FallbackDesign& a, const FallbackDesign& b) { return a.objective < b.objective; });
+  const ControlValues initial = space.initialControls(scene);
+  const bool tryInitial = !sameControls(initial, result.controls);
+  if (tryInitial) candidates.push_back({initial, result.initialObjective, result.initialRms, "the initial design"});
+
+  int failed = 0, worse = 0;
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    const FallbackDesign& f = candidates[c];
+    const bool isInitial = tryInitial && c + 1 == candidates.size();
+    const Design d = space.toDesign(f.controls);
+    SimulationResult sim;
+    try {
+      sim = simulateAll(model, d, newton);
+    } catch (const std::exception&) {
+      sim.allConverged = false;  // a design the model rejects is one more that does not re-solve
+    }
+    if (!sim.allConverged) {
+      ++failed;
+      continue;
+    }
+    const double rms = simulationRms(scene, sim);
+    if (!isInitial && !(rms <= result.initialRms * (1 + 1e-9))) {
+      ++worse;
+      continue;
+    }
+    out.controls = f.controls;
+    out.design = d;
+    out.simulation = std::move(sim);
+    out.allConverged = true;
+    out.fallback = true;
+    out.label = f.label;
+    out.optimizerRms = f.rms;
+    out.rms = rms;
+    std::string skipped;
+    if (failed > 0)
+      skipped += "; " + std::to_string(failed) + " better design" + (failed > 1 ? "s" : "") +
+                 " could not be re-solved from rest either";
+    if (worse > 0)
+      skipped += "; " + std::to_string(worse) + " better design" + (worse > 1 ? "s" : "") +
+                 " re-solved from rest worse than the initial design";
+    out.note = "the final design (" + millimetres(result.rms) +
+               " on the optimizer's equilibria) could not be re-solved from rest (" + finalFailure + "); archived " +
+               f.label + " (RMS " + millimetres(rms) + " re-solved from rest, " + millimetres(f.rms) +
+               " on the optimizer's equilibria), the best earlier design that re-solves from rest" + skipped;
+    return out;
+  }
+  if (!tryInitial)
+    out.note = "the final design is the initial one and could not be re-solved from rest (" + finalFailure +
+               "); archived with positions that are not equilibria (RMS " + millimetres(out.rms) + ")";
+  else
+    out.note = "no design of this run could be re-solved from rest, not even the initial one (" +
+               std::to_string(candidates.size()) + " earlier design" + (candidates.size() == 1 ? "" : "s") +
+               " tried): the final design (" + millimetres(result.rms) + " on the optimizer's equilibria) failed in " +
+               finalFailure + "; archived the final design with positions that are not equilibria (RMS " +
+               millimetres(out.rms) + ")";
+  return out;
+}
+
+}  // namespace rodmesh

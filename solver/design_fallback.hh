@@ -1,0 +1,81 @@
+// Which design `rodmesh optimize` archives (../shared/contracts.md §4,
+// "Outcome"): every archived pose must be an equilibrium re-solved from
+// scratch (Newton from the rest state) under the archived design, so that
+// `rodmesh simulate` on a scene carrying the archived rest positions and
+// radii reproduces it. The optimizers reach their equilibria by continuation
+// (warm starts across small design changes, or Ipopt's iterates polished by
+// Newton), so their final design may sit on a branch that load stepping from
+// rest does not reach. Both optimizers therefore keep a short list of earlier
+// accepted designs (control values only); when a pose of the final design
+// cannot be re-solved from rest, chooseArchivedDesign tries them from the
+// best objective to the worst, the initial design last, and archives the
+// first whose every pose re-solves (docs/optimization.md, "After the
+// optimizer").
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "model/design_space.hh"
+#include "solver/equilibrium.hh"
+#include "solver/newton.hh"
+
+namespace rodmesh {
+
+// An earlier design of a run, kept in case the final one cannot be re-solved
+// from rest.
+struct FallbackDesign {
+  ControlValues controls;
+  double objective = 0.0;  // f on the optimizer's own equilibria (m^2, contract §4)
+  double rms = 0.0;        // m, on the same equilibria
+  std::string label;       // where the run had it, e.g. "end of radii level 1 (iteration 37)"
+};
+
+// A bounded list of fallback designs, best objective first. When full, the
+// design whose objective is closest (by ratio) to the next better one is
+// dropped, so that the list spans the run's progress rather than crowding
+// round its end, where the designs share the final one's branch. Designs
+// with a non-finite objective or controls equal to one already held are
+// ignored.
+class DesignFallbacks {
+ public:
+  explicit DesignFallbacks(int capacity = 12) : capacity_(capacity < 1 ? 1 : capacity) {}
+  void add(const ControlValues& controls, double objective, double rms, const std::string& label);
+  const std::vector<FallbackDesign>& designs() const { return designs_; }
+
+ private:
+  int capacity_;
+  std::vector<FallbackDesign> designs_;
+};
+
+bool sameControls(const ControlValues& a, const ControlValues& b);
+
+// The design to archive, with every pose re-solved from rest under it.
+struct ArchivedDesign {
+  ControlValues controls;
+  Design design;
+  SimulationResult simulation;  // simulateAll under `design`, as `rodmesh simulate` solves
+  bool allConverged = false;    // every pose of `simulation` converged
+  bool fallback = false;        // an earlier design replaces the final one
+  std::string label;            // "the final design", or the fallback's label
+  double optimizerRms = 0.0;    // m, this design's RMS on the optimizer's equilibria
+  double rms = 0.0;             // m, on `simulation` (contract §3)
+  // Empty when the final design re-solved from rest; otherwise what happened,
+  // with numbers, for the archive's message and stderr.
+  std::string note;
+};
+
+struct DesignOptimizerResult;
+
+// Re-solves every pose from rest under the final design of `result`; when a
+// pose does not converge, tries result.fallbacks from the best objective to
+// the worst and then the initial design, and returns the first whose every
+// pose converges (a fallback other than the initial design must also be no
+// worse, re-solved from rest, than the initial design was on the optimizer's
+// equilibria). When none does, the final design with its unconverged poses.
+// `newton`: the options of `rodmesh simulate`'s Newton solve (the defaults
+// unless the caller changes both).
+ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space, const DesignOptimizerResult& result,
+                                    const NewtonOptions& newton);
+
+}  // namespace rodmesh

@@ -1,0 +1,160 @@
+// The design `rodmesh optimize` archives (solver/design_fallback.hh): the
+// bounded list of fallback designs, and the choice of the first design whose
+// every pose re-solves from rest when the final one does not.
+//
+// The case (testutil::fallbackCase): a cantilever bent far by a tip force,
+// targets from a design with 0.6 times its radii, Newton limited to 6
+// iterations per load step (the budget of `rodmesh simulate --max-iter 6`)
+// for the optimizer's solves and the re-solves alike. Warm-started from the
+// previous design's equilibrium (the optimizer's continuation) that is
+// plenty; from rest, the thin designs' large deflection is out of its reach,
+// the thicker ones' is not. So the optimizer follows the radii down to designs
+// it cannot re-solve from rest, and an earlier design must be archived. (With
+// the default budget, 100 iterations per load step, we found no small scene
+// whose optimized design fails from rest; the design study's Smiley, 2663
+// vertices, is one: benchmarks/results/design_study.md.)
+#include "solver/design_fallback.hh"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "model/design_space.hh"
+#include "solver/design_optimizer.hh"
+#include "tests/testutil/design_problems.hh"
+
+namespace rodmesh {
+namespace {
+
+// A reduced run of `iterations` iterations with these Newton options.
+DesignOptimizerResult reducedRun(SceneModel& model, const DesignSpace& space, int iterations,
+                                 const NewtonOptions& newton) {
+  DesignOptimizerOptions o;
+  o.maxIterations = iterations;
+  o.newton = newton;
+  return optimizeReduced(model, space, o);
+}
+
+// What acceptance does with an archive: a scene carrying the archived rest
+// positions and radii, solved from rest as `rodmesh simulate` solves it
+// (tests/cli/optimize_cli_test.cc runs the executable itself).
+SimulationResult resimulate(const Scene& scene, const Design& d, const NewtonOptions& newton) {
+  const Scene s = testutil::withDesign(scene, d);
+  SceneModel m(s);
+  return simulateAll(m, Design::fromScene(s), newton);
+}
+
+double maxDistance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  double m = 0.0;
+  for (std::size_t v = 0; v < a.size(); ++v) m = std::max(m, (a[v] - b[v]).norm());
+  return m;
+}
+
+ControlValues scaledControls(const DesignSpace& space, const Scene& s, double radiusScale) {
+  ControlValues c = space.initialControls(s);
+  c.radii *= radiusScale;
+  return c;
+}
+
+TEST(DesignFallbacks, KeepBestFirstWithinTheirCapacitySpreadOverTheRun) {
+  const Scene s = testutil::bentCantilever(2e-3);
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  DesignFallbacks list(4);
+  const double objectives[] = {100, 10, 1, 0.99, 0.98, 0.97};
+  for (int i = 0; i < 6; ++i)
+    list.add(scaledControls(space, s, 1.0 - 0.05 * i), objectives[i], 0.1, "design " + std::to_string(i));
+  // Ignored: a non-finite objective, and controls already held.
+  list.add(scaledControls(space, s, 0.5), std::nan(""), 0.1, "nan");
+  list.add(scaledControls(space, s, 1.0), 0.5, 0.1, "duplicate");
+  const std::vector<FallbackDesign>& d = list.designs();
+  ASSERT_EQ(d.size(), 4u);
+  // Best first; the designs crowding near the best give way, the early ones stay.
+  EXPECT_EQ(d[0].label, "design 5");
+  EXPECT_EQ(d[1].label, "design 4");
+  EXPECT_EQ(d[2].label, "design 1");
+  EXPECT_EQ(d[3].label, "design 0");
+}
+
+TEST(DesignFallback, FinalDesignThatResolvesFromRestIsArchived) {
+  Scene s = testutil::bentCantilever(2e-3);
+  testutil::setScaledRadiiTargets(s, 0.9);
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  const DesignOptimizerResult r = reducedRun(model, space, 10, NewtonOptions{});
+  const ArchivedDesign a = chooseArchivedDesign(model, space, r, NewtonOptions{});
+  EXPECT_FALSE(a.fallback);
+  EXPECT_TRUE(a.allConverged);
+  EXPECT_TRUE(a.note.empty()) << a.note;
+  EXPECT_TRUE(sameControls(a.controls, r.controls));
+  EXPECT_LE(a.rms, r.initialRms);
+}
+
+TEST(DesignFallback, ReducedRunArchivesTheBestEarlierDesignThatResolvesFromRest) {
+  const Scene s = testutil::fallbackCase();
+  const NewtonOptions newton = testutil::fallbackCaseNewton();
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  const DesignOptimizerResult r = reducedRun(model, space, 60, newton);
+  SCOPED_TRACE(r.status.message);
+  ASSERT_NE(r.status.outcome, Outcome::NumericalFailure);
+  ASSERT_FALSE(r.fallbacks.empty());
+  for (std::size_t i = 1; i < r.fallbacks.size(); ++i)
+    EXPECT_LE(r.fallbacks[i - 1].objective, r.fallbacks[i].objective) << "best first";
+  // The premise: the optimizer got further on its own equilibria than a
+  // solve from rest can follow.
+  EXPECT_LT(r.rms, 0.5 * r.initialRms);
+  ASSERT_FALSE(resimulate(s, r.design, newton).allConverged);
+
+  const ArchivedDesign a = chooseArchivedDesign(model, space, r, newton);
+  SCOPED_TRACE(a.note);
+  ASSERT_TRUE(a.fallback);
+  ASSERT_TRUE(a.allConverged);
+  EXPECT_NE(a.label, "the initial design") << "a better design than the initial one re-solves from rest";
+  EXPECT_NE(a.note.find("could not be re-solved from rest"), std::string::npos);
+  EXPECT_NE(a.note.find(a.label), std::string::npos) << "the note names the design archived";
+  EXPECT_NE(a.note.find("pose 'bend'"), std::string::npos) << "and the pose that failed";
+  ASSERT_TRUE(std::isfinite(a.rms));
+  EXPECT_LE(a.rms, r.initialRms);
+  EXPECT_LT(a.rms, 0.9 * r.initialRms) << "the fallback improves on the initial design";
+  // Self-consistent: the design is the controls' design, and the archived
+  // positions are what a solve from rest under it gives.
+  const Design d = space.toDesign(a.controls);
+  for (int v = 0; v < d.numVertices(); ++v) {
+    EXPECT_EQ(d.radii[v], a.design.radii[v]);
+    EXPECT_EQ(d.restPositions[v], a.design.restPositions[v]);
+  }
+  const SimulationResult check = resimulate(s, a.design, newton);
+  ASSERT_TRUE(check.allConverged);
+  EXPECT_LT(maxDistance(check.poses[0].positions, a.simulation.poses[0].positions), 1e-8);
+  EXPECT_NEAR(*check.poses[0].rmsError, a.rms, 1e-12);
+}
+
+// When not even the initial design re-solves from rest, the final design is
+// archived as it is, and the note says so.
+TEST(DesignFallback, NoDesignThatResolvesKeepsTheFinalOneAndSaysSo) {
+  Scene s = testutil::bentCantilever(5e-3);
+  testutil::setScaledRadiiTargets(s, 0.6);
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  NewtonOptions newton;
+  newton.maxIterations = 3;  // from rest, every design fails under this load (even the initial one)
+  DesignOptimizerResult r;
+  r.controls = scaledControls(space, s, 0.6);
+  r.design = space.toDesign(r.controls);
+  r.rms = 1e-4;
+  r.initialRms = 0.05;
+  DesignFallbacks list;
+  list.add(scaledControls(space, s, 0.8), 1e-3, 0.01, "the design of radii level 0, iteration 3");
+  r.fallbacks = list.designs();
+  const ArchivedDesign a = chooseArchivedDesign(model, space, r, newton);
+  EXPECT_FALSE(a.fallback);
+  EXPECT_FALSE(a.allConverged);
+  EXPECT_TRUE(sameControls(a.controls, r.controls));
+  EXPECT_NE(a.note.find("not even the initial one (2 earlier designs tried)"), std::string::npos) << a.note;
+  EXPECT_TRUE(std::isfinite(a.rms));
+  for (const Vec3& x : a.simulation.poses[0].positions) EXPECT_TRUE(x.allFinite());
+}
+
+}  // namespace
+}  // namespace rodmesh
