@@ -558,6 +558,7 @@ class Study:
         nx, ny, k = self.L["sheet"] or (4, 5, 11)
         n = self.L["threads_poses"]
         p = self.sheet("threads", (nx, ny), k, poses=n)
+        load = " ".join(open("/proc/loadavg").read().split()[:3])
         rows = []
         for th in (1, 2):
             self.log("threads: %d" % th)
@@ -572,8 +573,7 @@ class Study:
             "`--method reduced --schedule joint --threads 1|2` on a hex sheet %dx%d cells, K = %d, %d poses "
             "(`--max-iter %d --time-limit %d`); poses are solved in parallel. Load average at the start of this "
             "part: %s (a second thread can only help if a core is free)." % (
-                nx, ny, k, n, self.L["scale_iter"], self.L["scale_time"],
-                " ".join(open("/proc/loadavg").read().split()[:3])), "",
+                nx, ny, k, n, self.L["scale_iter"], self.L["scale_time"], load), "",
             table(["threads", "poses", "vertices", "iterations", "s/iteration", "process wall (s)",
                    "process CPU (s)", "CPU/wall"],
                   [[x["threads"], x["poses"], x["vertices"], x["iterations"], fmt(x["per_iteration_s"]),
