@@ -10,6 +10,12 @@ the time each halving of the RMS costs, pictures of every pose
 ASSETDIR receives rms_time_E.csv, rms_time_E.png, render_E_M.png; OUT.md links
 them relatively. If ASSETDIR/sweeps.md exists (benchmarks/study/sweeps.py),
 it is included. NOTES.md (hand-written discussion) is included verbatim.
+
+    /usr/bin/python3 benchmarks/study/report.py --update-sweeps --assets ASSETDIR --md OUT.md
+
+rewrites only the sweeps section at the end of an existing OUT.md from
+ASSETDIR/sweeps.md (after sweeps parts were re-run and merged with
+merge_sweeps.py), without the optimizer runs' archives.
 """
 import argparse
 import json
@@ -203,19 +209,50 @@ def plot(path, e, runs, limit):
     plt.close(fig)
 
 
+SWEEPS_HEADING = "## Sweeps (benchmarks/study/sweeps.py)"
+
+
+def sweeps_section(assets, rel):
+    """ASSETS/sweeps.md as a section of the report (links made relative to the report, headings one level
+    down), or None if there is none."""
+    path = os.path.join(assets, "sweeps.md")
+    if not os.path.exists(path):
+        return None
+    body = open(path).read()
+    body = re.sub(r"\]\((?!https?:|/|#)([^)]+)\)", lambda mo: "](%s/%s)" % (rel, mo.group(1)), body)
+    body = re.sub(r"^(#+) ", lambda mo: "#" + mo.group(1) + " ", body, flags=re.M)
+    return SWEEPS_HEADING + "\n\n" + body.rstrip() + "\n"
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scenes", required=True)
-    ap.add_argument("--runs", required=True)
+    ap.add_argument("--scenes")
+    ap.add_argument("--runs")
     ap.add_argument("--assets", required=True)
     ap.add_argument("--md", required=True)
     ap.add_argument("--title", default="Design study: the paper's four experiments, SAND and reduced")
     ap.add_argument("--notes")
     ap.add_argument("--no-render", action="store_true")
     ap.add_argument("--command", default="benchmarks/design_study.sh")
+    ap.add_argument("--update-sweeps", action="store_true",
+                    help="only rewrite the sweeps section of the existing --md from ASSETDIR/sweeps.md")
     a = ap.parse_args()
-    os.makedirs(a.assets, exist_ok=True)
     rel = os.path.relpath(a.assets, os.path.dirname(os.path.abspath(a.md)))
+    if a.update_sweeps:
+        old = open(a.md).read()
+        sweeps = sweeps_section(a.assets, rel)
+        if sweeps is None:
+            ap.error("no %s" % os.path.join(a.assets, "sweeps.md"))
+        i = old.find("\n" + SWEEPS_HEADING + "\n")
+        new = (old[:i + 1] if i >= 0 else old.rstrip("\n") + "\n\n") + sweeps
+        with open(a.md + ".tmp", "w") as f:
+            f.write(new)
+        os.replace(a.md + ".tmp", a.md)
+        print("wrote", a.md)
+        return 0
+    if not (a.scenes and a.runs):
+        ap.error("--scenes and --runs are required (unless --update-sweeps)")
+    os.makedirs(a.assets, exist_ok=True)
     scenes = json.load(open(os.path.join(a.scenes, "scenes.json")))
     runs_meta = json.load(open(os.path.join(a.runs, "runs.json")))
     results = {}
@@ -414,13 +451,9 @@ def main():
 
     if a.notes and os.path.exists(a.notes):
         w(open(a.notes).read().rstrip() + "\n")
-    sweeps = os.path.join(a.assets, "sweeps.md")
-    if os.path.exists(sweeps):
-        body = open(sweeps).read()
-        body = re.sub(r"\]\((?!https?:|/|#)([^)]+)\)", lambda mo: "](%s/%s)" % (rel, mo.group(1)), body)
-        body = re.sub(r"^(#+) ", lambda mo: "#" + mo.group(1) + " ", body, flags=re.M)
-        w("## Sweeps (benchmarks/study/sweeps.py)\n")
-        w(body.rstrip() + "\n")
+    sweeps = sweeps_section(a.assets, rel)
+    if sweeps:
+        w(sweeps)
     with open(a.md + ".tmp", "w") as f:
         f.write("\n".join(L))
     os.replace(a.md + ".tmp", a.md)

@@ -2,7 +2,12 @@
 """Accuracy against time, discretization, the paper's finite-difference recipe
 against exact derivatives, scaling, and the paper's Table 2 (issue #10).
 
-usage: /usr/bin/python3 benchmarks/study/sweeps.py --rodmesh BIN --out OUTDIR [--quick]
+usage: /usr/bin/python3 benchmarks/study/sweeps.py --rodmesh BIN --out OUTDIR [--quick] [--only PART ...]
+
+Parts (PARTS below): tolerance, discretization, fd, scaling (time per
+iteration against poses and vertices, one thread), threads (1 against 2
+threads: run it on an otherwise idle machine), table2. Parts run separately
+(`--only`) into separate OUTDIRs are merged by merge_sweeps.py.
 
 Runs everything through the rodmesh CLI, reads the archives with h5py and
 writes OUTDIR/*.csv, OUTDIR/*.png and OUTDIR/sweeps.md. Every optimize run
@@ -62,6 +67,11 @@ PAPER_T2 = {"Hat": (6971, 0.0078, 62.956, 21.06), "Dinosaur": (12987, 0.0138, 10
             "Sphere": (10076, 0.0082, 118.40, 45.321)}
 
 
+# The parts, in the order they run: name -> Study method. `threads` (1 against 2 threads) wants an idle machine.
+PARTS = {"tolerance": "tolerance", "discretization": "discretization", "fd": "fd_vs_exact", "scaling": "scaling",
+         "threads": "threads", "table2": "table2"}
+
+
 def fmt(x, d=3):
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "—"
@@ -88,7 +98,7 @@ def write_csv(path, rows):
 
 def table(header, rows):
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    out += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
     return "\n".join(out)
 
 
@@ -122,6 +132,7 @@ class Study:
         self.bin = os.path.abspath(args.rodmesh)
         self.out = os.path.abspath(args.out)
         self.quick = args.quick
+        self.only = args.only
         self.L = LIMITS[args.quick]
         os.makedirs(self.out, exist_ok=True)
         self.tmp = tempfile.mkdtemp(prefix="rodmesh_sweeps_")
@@ -193,7 +204,7 @@ class Study:
                 rows.append(dict(method=method, tol=tol, status=r["status"], iterations=r["iterations"],
                                  time_s=r["time_s"], rms_mm=r["rms"] * 1e3, residual_N=r["residual"],
                                  equilibrium_gap_m=r["gap"], last_violation_N=r["last_violation"],
-                                 message=r["message"]))
+                                 process_wall_s=r["wall_s"], process_cpu_s=r["cpu_s"], message=r["message"]))
         write_csv(os.path.join(self.out, "tolerance.csv"), rows)
         fig, ax = plt.subplots(1, 2, figsize=(11, 4))
         for (method, tol), r in runs.items():
@@ -223,9 +234,10 @@ class Study:
               "optimizer's own positions and the re-solve (the equilibrium error of the optimizer's iterate); "
               "violation: the optimizer's last equilibrium violation (SAND; 0 for reduced)." %
               (desc, self.L["tol_iter"], self.L["tol_time"]), "",
-              table(["method", "--tol", "status", "iterations", "time (s)", "RMS (mm)", "residual (N)", "gap (m)",
-                     "violation (N)", "stopped because"],
-                    [[x["method"], "%g" % x["tol"], x["status"], x["iterations"], fmt(x["time_s"]), fmt(x["rms_mm"], 4),
+              table(["method", "--tol", "status", "iterations", "time (s)", "CPU (s)", "RMS (mm)", "residual (N)",
+                     "gap (m)", "violation (N)", "stopped because"],
+                    [[x["method"], "%g" % x["tol"], x["status"], x["iterations"], fmt(x["time_s"]),
+                      fmt(x["process_cpu_s"]), fmt(x["rms_mm"], 4),
                       fmt(x["residual_N"], 2), fmt(x["equilibrium_gap_m"], 2), fmt(x["last_violation_N"], 2),
                       x["message"][:70]] for x in rows]),
               "", "![tolerance](tolerance.png)", ""]
@@ -285,7 +297,8 @@ class Study:
             rad_f, rest_f = S.apply_design(polys, fine)
             rf = fine_rms(rad_f, rest_f)
             rows.append(dict(k=k, vertices=len(Vc), dofs=r["dofs"], status=r["status"], iterations=r["iterations"],
-                             time_s=r["time_s"], per_iteration_s=per_iteration(r), rms_own_mm=r["rms"] * 1e3,
+                             time_s=r["time_s"], process_wall_s=r["wall_s"], process_cpu_s=r["cpu_s"],
+                             per_iteration_s=per_iteration(r), rms_own_mm=r["rms"] * 1e3,
                              rms_fine_mm=rf * 1e3, uniform_fine_mm=uniform * 1e3))
         write_csv(os.path.join(self.out, "discretization.csv"), rows)
         fig, ax = plt.subplots(1, 2, figsize=(11, 4))
@@ -319,9 +332,10 @@ class Study:
             "Uniform 2 mm design at K = %d: RMS %s mm." % (cells[0], cells[1], len(fine["rods"]), kf, nv,
                                                             self.L["disc_iter"], self.L["disc_time"], nv, kf,
                                                             fmt(uniform * 1e3, 4)), "",
-            table(["K", "vertices", "unknowns/pose", "status", "iterations", "time (s)", "s/iteration",
+            table(["K", "vertices", "unknowns/pose", "status", "iterations", "time (s)", "CPU (s)", "s/iteration",
                    "RMS at K (mm)", "RMS at K = %d (mm)" % kf],
                   [[x["k"], x["vertices"], x["dofs"], x["status"], x["iterations"], fmt(x["time_s"]),
+                    fmt(x["process_cpu_s"]),
                     fmt(x["per_iteration_s"]), fmt(x["rms_own_mm"], 4), fmt(x["rms_fine_mm"], 4)] for x in rows]),
             "",
             "The fine RMS falls with the edge count per rod as (K - 1)^%.2f (least squares over the rows above); "
@@ -444,72 +458,128 @@ class Study:
         self.fd_rows, self.halv = rows, halv
 
     # -- 4. scaling ---------------------------------------------------------
+    def scaling_row(self, sweep, r, poses, threads, cells):
+        """One row of the scaling and threads tables. s/iteration needs at least 2 iterations (else NaN);
+        CPU per iteration is estimated as s/iteration x the process's CPU time / its wall time (on a loaded
+        machine the process waits for a core part of its wall time)."""
+        per = per_iteration(r) if r["iterations"] >= 2 else float("nan")
+        load = r["cpu_s"] / r["wall_s"] if r["wall_s"] > 0 else float("nan")
+        return dict(sweep=sweep, cells="%dx%d" % tuple(cells), poses=poses, vertices=r["n_vertices"], dofs=r["dofs"], threads=threads,
+                    iterations=r["iterations"], per_iteration_s=per, cpu_per_iteration_s=per * load,
+                    initial_s=float(r["hist_t"][0]) if len(r["hist_t"]) else float("nan"), time_s=r["time_s"],
+                    process_wall_s=r["wall_s"], process_cpu_s=r["cpu_s"], cpu_over_wall=load,
+                    peak_mib=r["peak_mib"], status=r["status"], message=r["message"])
+
     def scaling(self):
         nx, ny, k = self.L["sheet"] or (4, 5, 11)
         rows = []
         for n in self.L["poses"]:
             self.log("scaling: %d poses" % n)
             p = self.sheet("poses_%d" % n, (nx, ny), k, poses=n)
-            r = S.optimize(self.bin, p, self.path("poses_%d.h5" % n), ["--method", "reduced", "--schedule", "joint"] +
+            r = S.optimize(self.bin, p, self.path("poses_%d.h5" % n),
+                           ["--method", "reduced", "--schedule", "joint", "--threads", "1"] +
                            self.limits(self.L["scale_iter"], self.L["scale_time"]))
-            rows.append(dict(sweep="poses", poses=n, vertices=r["n_vertices"], dofs=r["dofs"], threads=1,
-                             iterations=r["iterations"], per_iteration_s=per_iteration(r), time_s=r["time_s"],
-                             peak_mib=r["peak_mib"]))
-        for cells in self.L["vert_cells"]:
+            rows.append(self.scaling_row("poses", r, n, 1, (nx, ny)))
+        vt = self.L["vert_time"]
+        vt = vt if isinstance(vt, (list, tuple)) else [vt] * len(self.L["vert_cells"])
+        for cells, tl in zip(self.L["vert_cells"], vt):
             self.log("scaling: cells %s" % (cells,))
             p = self.sheet("verts_%d_%d" % cells, cells, 11, poses=2)
             r = S.optimize(self.bin, p, self.path("verts_%d_%d.h5" % cells),
-                           ["--method", "reduced", "--schedule", "joint"] +
-                           self.limits(self.L["vert_iter"], self.L["vert_time"]))
-            rows.append(dict(sweep="vertices", poses=2, vertices=r["n_vertices"], dofs=r["dofs"], threads=1,
-                             iterations=r["iterations"], per_iteration_s=per_iteration(r), time_s=r["time_s"],
-                             peak_mib=r["peak_mib"]))
-        n = self.L["threads_poses"]
-        p = self.sheet("threads", (nx, ny), k, poses=n)
-        for th in (1, 2):
-            self.log("scaling: %d threads" % th)
-            r = S.optimize(self.bin, p, self.path("threads_%d.h5" % th),
-                           ["--method", "reduced", "--schedule", "joint", "--threads", str(th)] +
-                           self.limits(self.L["scale_iter"], self.L["scale_time"]))
-            rows.append(dict(sweep="threads", poses=n, vertices=r["n_vertices"], dofs=r["dofs"], threads=th,
-                             iterations=r["iterations"], per_iteration_s=per_iteration(r), time_s=r["time_s"],
-                             peak_mib=r["peak_mib"]))
+                           ["--method", "reduced", "--schedule", "joint", "--threads", "1"] +
+                           self.limits(self.L["vert_iter"], tl))
+            rows.append(self.scaling_row("vertices", r, 2, 1, cells))
+            self.log("scaling: %d vertices, %d iterations, %s s/iteration, %.0f s wall, %.0f s CPU" % (
+                r["n_vertices"], r["iterations"], fmt(rows[-1]["per_iteration_s"]), r["wall_s"], r["cpu_s"]))
         write_csv(os.path.join(self.out, "scaling.csv"), rows)
         P = [x for x in rows if x["sweep"] == "poses"]
         V = [x for x in rows if x["sweep"] == "vertices"]
-        T = [x for x in rows if x["sweep"] == "threads"]
         ep = fit_exponent([x["poses"] for x in P], [x["per_iteration_s"] for x in P])
         ev = fit_exponent([x["vertices"] for x in V], [x["per_iteration_s"] for x in V])
+        epc = fit_exponent([x["poses"] for x in P], [x["cpu_per_iteration_s"] for x in P])
+        evc = fit_exponent([x["vertices"] for x in V], [x["cpu_per_iteration_s"] for x in V])
         em = fit_exponent([x["vertices"] for x in V], [x["peak_mib"] for x in V])
+        Vm = [x for x in V if math.isfinite(x["per_iteration_s"])]
+        vrange = (min(x["vertices"] for x in Vm), max(x["vertices"] for x in Vm)) if Vm else (0, 0)
+        # The upper half of the vertex range alone (where the fixed costs no longer dominate).
+        Vh = sorted(Vm, key=lambda x: x["vertices"])[len(Vm) // 2:]
+        evh = fit_exponent([x["vertices"] for x in Vh], [x["per_iteration_s"] for x in Vh])
+        short = [x for x in rows if not math.isfinite(x["per_iteration_s"])]
         fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-        ax[0].loglog([x["poses"] for x in P], [x["per_iteration_s"] for x in P], "o-")
+        ax[0].loglog([x["poses"] for x in P], [x["per_iteration_s"] for x in P], "o-", label="wall")
+        ax[0].loglog([x["poses"] for x in P], [x["cpu_per_iteration_s"] for x in P], "s--", label="CPU (est.)")
         ax[0].set_xlabel("poses")
         ax[0].set_ylabel("s per iteration")
-        ax[0].set_title("exponent %.2f" % ep, fontsize=9)
-        ax[1].loglog([x["vertices"] for x in V], [x["per_iteration_s"] for x in V], "o-")
+        ax[0].set_title("exponent %.2f (wall), %.2f (CPU)" % (ep, epc), fontsize=9)
+        ax[0].legend(fontsize=8)
+        ax[1].loglog([x["vertices"] for x in V], [x["per_iteration_s"] for x in V], "o-", label="wall")
+        ax[1].loglog([x["vertices"] for x in V], [x["cpu_per_iteration_s"] for x in V], "s--", label="CPU (est.)")
         ax[1].set_xlabel("vertices")
-        ax[1].set_title("exponent %.2f" % ev, fontsize=9)
+        ax[1].set_title("exponent %.2f (wall), %.2f (CPU)" % (ev, evc), fontsize=9)
+        ax[1].legend(fontsize=8)
         fig.tight_layout()
         fig.savefig(os.path.join(self.out, "scaling.png"), dpi=110)
         plt.close(fig)
-        sp = T[0]["per_iteration_s"] / T[1]["per_iteration_s"] if len(T) == 2 else float("nan")
         self.md += [
-            "## Scaling: time per iteration against poses, vertices and threads", "",
-            "`--method reduced --schedule joint` (every variable at the finest level, so every iteration is "
-            "alike); time per iteration = median over the run's iterations of the history's time differences "
-            "(gradient: one Newton solve per pose and the adjoint solves, plus the line search's probes). Poses: "
-            "hex sheet %dx%d cells, K = %d, 1 to %d poses (`--max-iter %d`). Vertices: hex sheets with K = 11, "
-            "2 poses (`--max-iter %d --time-limit %d`). Threads: %d poses, `--threads 1` against `2`. Fitted "
-            "exponents: least squares of log(time) against log(size)." % (
-                nx, ny, k, max(self.L["poses"]), self.L["scale_iter"], self.L["vert_iter"], self.L["vert_time"], n), "",
-            table(["sweep", "poses", "vertices", "unknowns/pose", "threads", "iterations", "s/iteration",
+            "## Scaling: time per iteration against poses and vertices", "",
+            "`--method reduced --schedule joint --threads 1` (every variable at the finest level, so every "
+            "iteration is alike); time per iteration = median over the run's iterations of the history's time "
+            "differences (gradient: one Newton solve per pose and the adjoint solves, plus the line search's "
+            "probes; the initial equilibria excluded, their time is the *initial* column); runs with fewer than "
+            "2 iterations have no time per iteration. CPU: user + system time of the rodmesh process "
+            "(getrusage); CPU per iteration is estimated as s/iteration x the process's CPU/wall ratio. Poses: "
+            "hex sheet %dx%d cells, K = %d, 1 to %d poses (`--max-iter %d --time-limit %d`). Vertices: hex "
+            "sheets with K = 11, 2 poses (`--max-iter %d --time-limit %s`). Fitted exponents: least squares of "
+            "log(time) against log(size). The 1-against-2-threads comparison is its own part (`--only threads`)."
+            % (nx, ny, k, max(self.L["poses"]), self.L["scale_iter"], self.L["scale_time"], self.L["vert_iter"],
+               "/".join(str(t) for t in sorted(set(vt)))), "",
+            table(["sweep", "cells", "poses", "vertices", "unknowns/pose", "iterations", "initial (s)",
+                   "s/iteration", "CPU s/iteration (est.)", "process wall (s)", "process CPU (s)",
                    "peak memory (MiB)"],
-                  [[x["sweep"], x["poses"], x["vertices"], x["dofs"], x["threads"], x["iterations"],
-                    fmt(x["per_iteration_s"]), fmt(x["peak_mib"])] for x in rows]), "",
-            "Fitted exponents: time per iteration ~ poses^%.2f, ~ vertices^%.2f; peak memory ~ vertices^%.2f. "
-            "Two threads against one: %.2fx faster per iteration." % (ep, ev, em, sp), "",
+                  [[x["sweep"], x["cells"], x["poses"], x["vertices"], x["dofs"], x["iterations"],
+                    fmt(x["initial_s"]), fmt(x["per_iteration_s"]), fmt(x["cpu_per_iteration_s"]),
+                    fmt(x["process_wall_s"]), fmt(x["process_cpu_s"]), fmt(x["peak_mib"])] for x in rows]), "",
+            "Fitted exponents: time per iteration ~ poses^%.2f (CPU estimate: ^%.2f); ~ vertices^%.2f (CPU "
+            "estimate: ^%.2f) over %d to %d vertices, ^%.2f over the upper half of that range (%d to %d); peak "
+            "memory ~ vertices^%.2f.%s" % (
+                ep, epc, ev, evc, vrange[0], vrange[1], evh, Vh[0]["vertices"] if Vh else 0,
+                Vh[-1]["vertices"] if Vh else 0, em,
+                (" Fewer than 2 iterations (no time per iteration): %s." % "; ".join(
+                    "%s %s, %d vertices: %d iterations, %s" % (x["sweep"], x["cells"], x["vertices"], x["iterations"],
+                                                           x["message"][:80]) for x in short)) if short else ""), "",
             "![scaling](scaling.png)", ""]
-        self.scale = dict(poses=ep, vertices=ev, memory=em, threads=sp)
+        self.scale = dict(poses=ep, vertices=ev, poses_cpu=epc, vertices_cpu=evc, vertices_upper=evh, memory=em,
+                          vrange=vrange)
+
+    # -- 4b. threads --------------------------------------------------------
+    def threads(self):
+        """Time per iteration with --threads 1 against 2 (poses solved in parallel). Meaningful only on an
+        otherwise idle machine; the other parts run one thread each."""
+        nx, ny, k = self.L["sheet"] or (4, 5, 11)
+        n = self.L["threads_poses"]
+        p = self.sheet("threads", (nx, ny), k, poses=n)
+        load = " ".join(open("/proc/loadavg").read().split()[:3])
+        rows = []
+        for th in (1, 2):
+            self.log("threads: %d" % th)
+            r = S.optimize(self.bin, p, self.path("threads_%d.h5" % th),
+                           ["--method", "reduced", "--schedule", "joint", "--threads", str(th)] +
+                           self.limits(self.L["scale_iter"], self.L["scale_time"]))
+            rows.append(self.scaling_row("threads", r, n, th, (nx, ny)))
+        write_csv(os.path.join(self.out, "threads.csv"), rows)
+        sp = rows[0]["per_iteration_s"] / rows[1]["per_iteration_s"]
+        self.md += [
+            "## Threads: time per iteration with 1 and 2 threads", "",
+            "`--method reduced --schedule joint --threads 1|2` on a hex sheet %dx%d cells, K = %d, %d poses "
+            "(`--max-iter %d --time-limit %d`); poses are solved in parallel. Load average at the start of this "
+            "part: %s (a second thread can only help if a core is free)." % (
+                nx, ny, k, n, self.L["scale_iter"], self.L["scale_time"], load), "",
+            table(["threads", "poses", "vertices", "iterations", "s/iteration", "process wall (s)",
+                   "process CPU (s)", "CPU/wall"],
+                  [[x["threads"], x["poses"], x["vertices"], x["iterations"], fmt(x["per_iteration_s"]),
+                    fmt(x["process_wall_s"]), fmt(x["process_cpu_s"]), fmt(x["cpu_over_wall"])] for x in rows]), "",
+            "Two threads against one: %.2fx faster per iteration." % sp, ""]
+        self.thr = dict(speedup=sp)
 
     # -- 5. Table 2 ---------------------------------------------------------
     def table2(self):
@@ -595,8 +665,8 @@ class Study:
         mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
         return [
             "# Design study: sweeps (issue #10, items 2 and 3)", "",
-            "Regenerate: `/usr/bin/python3 benchmarks/study/sweeps.py --rodmesh build/apps/rodmesh --out OUTDIR%s`"
-            % (" --quick" if self.quick else ""), "",
+            "Regenerate: `/usr/bin/python3 benchmarks/study/sweeps.py --rodmesh build/apps/rodmesh --out OUTDIR%s%s`"
+            % (" --quick" if self.quick else "", (" --only " + " ".join(self.only)) if self.only else ""), "",
             "Parts run: %s." % ", ".join(self.parts), "",
             "Mode: %s. Started %s UTC, %.0f s in all. Commit %s%s. Machine: %s, %d logical CPUs, %.0f GiB, %s. "
             "**The machine was shared** with up to four other jobs (builds, tests): load average %s before and "
@@ -622,10 +692,10 @@ class Study:
             w.append("a design optimized at K = %d fits its own discretization (%s mm) far better than the "
                      "object it stands for (%s mm at the fine K): coarse rods over-fit" % (
                          d[0]["k"], fmt(d[0]["rms_own_mm"], 3), fmt(d[0]["rms_fine_mm"], 3)))
-        sc = getattr(self, "scale", None)
-        if sc and sc["threads"] < 1.3:
-            w.append("a second thread gained %.2fx per iteration (poses are solved in parallel, but the 2 cores "
-                     "were shared with other jobs)" % sc["threads"])
+        th = getattr(self, "thr", None)
+        if th and th["speedup"] < 1.3:
+            w.append("a second thread gained %.2fx per iteration (poses are solved in parallel; check the load "
+                     "average of the threads section)" % th["speedup"])
         t2 = getattr(self, "t2", [])
         slow = [x for x in t2 if x["paper_step_ms"] and x["step_ms"] > x["paper_step_ms"]]
         if slow:
@@ -697,8 +767,12 @@ class Study:
         out += self.weaknesses()
         if hasattr(self, "scale"):
             s = self.scale
-            out.append("- **Growth of cost**: time per iteration ~ poses^%.2f and ~ vertices^%.2f (fitted); "
-                       "2 threads against 1: %.2fx." % (s["poses"], s["vertices"], s["threads"]))
+            out.append("- **Growth of cost**: time per iteration ~ poses^%.2f and ~ vertices^%.2f (fitted, wall "
+                       "clock; CPU estimate ^%.2f and ^%.2f), vertices from %d to %d." % (
+                           s["poses"], s["vertices"], s["poses_cpu"], s["vertices_cpu"], s["vrange"][0],
+                           s["vrange"][1]))
+        if hasattr(self, "thr"):
+            out.append("- **Threads**: 2 threads against 1: %.2fx faster per iteration." % self.thr["speedup"])
         return out + [""]
 
 
@@ -708,7 +782,7 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--only", nargs="*", default=None,
-                    help="run only these parts: tolerance discretization fd scaling table2")
+                    help="run only these parts: " + " ".join(PARTS))
     args = ap.parse_args()
     st = Study(args)
     try:
@@ -719,8 +793,10 @@ def main():
 
 def run_parts(st, args):
     load0 = " ".join(open("/proc/loadavg").read().split()[:3])
-    parts = [("tolerance", st.tolerance), ("discretization", st.discretization), ("fd", st.fd_vs_exact),
-             ("scaling", st.scaling), ("table2", st.table2)]
+    parts = [(name, getattr(st, PARTS[name])) for name in PARTS]
+    unknown = set(args.only or []) - set(PARTS)
+    if unknown:
+        raise SystemExit("sweeps.py: unknown part(s) %s (parts: %s)" % (", ".join(sorted(unknown)), " ".join(PARTS)))
     failures = []
     for name, fn in parts:
         if args.only and name not in args.only:

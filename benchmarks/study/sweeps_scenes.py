@@ -10,6 +10,7 @@ fractions j/(n-1), shared ends), which do not depend on the vertices per rod.
 import json
 import math
 import re
+import resource
 import subprocess
 import time
 
@@ -119,10 +120,14 @@ def rms_of(f):
 
 
 def optimize(rodmesh, scene_path, out, args, timeout=None):
-    """Runs `rodmesh optimize`; returns read_optimize() plus the wall time."""
+    """Runs `rodmesh optimize`; returns read_optimize() plus the process's wall and CPU time."""
+    c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     rc, wall, err = run([rodmesh, "optimize", scene_path, "-o", out, "-q"] + list(args), ok=(0, 1), timeout=timeout)
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     r = read_optimize(out)
     r["exit"], r["wall_s"] = rc, wall
+    # CPU time (user + system) of the process: on a shared machine, wall time includes waiting for a core.
+    r["cpu_s"] = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
     return r
 
 

@@ -8,7 +8,8 @@ sizes, and every target moves the way its supports and loads say it must
 (checked on the targets, against expectations from the physics of each pose,
 not against numbers the generator printed). Report helpers: the equilibrium
 curve, the time to a given RMS and the RMS after radii, on hand-made
-histories.
+histories. Sweeps: the part list (threads is a part of its own, scaling no
+longer runs it) and merge_sweeps.py on hand-made sweeps.md files.
 """
 import os
 import sys
@@ -20,7 +21,9 @@ import numpy as np
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 sys.path.insert(0, os.path.join(ROOT, "benchmarks", "study"))
 import make_scenes  # noqa: E402
+import merge_sweeps  # noqa: E402
 import report  # noqa: E402
+import sweeps  # noqa: E402
 
 RODMESH = None
 
@@ -60,6 +63,57 @@ class ReportHelpers(unittest.TestCase):
         value, reached = report.after_radii(history([0, 1], [8, 5], [0, 0]))
         self.assertAlmostEqual(value, 5e-3)
         self.assertFalse(reached)
+
+
+def one_run(parts, tag):
+    """A sweeps.md as sweeps.py writes it, for the given parts."""
+    titles = {"tolerance": "Tolerance sweep", "discretization": "Discretization sweep",
+              "fd": "The paper's recipe against ours: finite-difference design derivatives",
+              "scaling": "Scaling: time per iteration against poses and vertices",
+              "threads": "Threads: time per iteration with 1 and 2 threads",
+              "table2": "Table 2: dynamic steps and static solves"}
+    md = ["# Design study: sweeps (issue #10, items 2 and 3)", "", "Regenerate: `sweeps.py --only %s`" % " ".join(parts),
+          "", "Parts run: %s." % ", ".join(parts), "", "Mode: full. Started %s." % tag, "", "## Answers", ""]
+    md += ["- **%s** answer from %s." % (p, tag) for p in parts] + [""]
+    for p in parts:
+        md += ["## " + titles[p], "", "%s body from %s." % (p, tag), "", "### A subsection of %s" % p, "", "text", ""]
+    return "\n".join(md)
+
+
+class Sweeps(unittest.TestCase):
+    def test_parts(self):
+        self.assertEqual(list(sweeps.PARTS), ["tolerance", "discretization", "fd", "scaling", "threads", "table2"])
+        self.assertEqual(list(sweeps.PARTS), merge_sweeps.PARTS)
+        for name, method in sweeps.PARTS.items():
+            self.assertTrue(callable(getattr(sweeps.Study, method)), name)
+        # scaling no longer runs the 1-against-2-threads comparison; threads does.
+        import inspect
+        self.assertNotIn('"--threads", str(', inspect.getsource(sweeps.Study.scaling))
+        self.assertIn('"--threads", str(th)', inspect.getsource(sweeps.Study.threads))
+
+    def test_merge(self):
+        old = one_run(["fd", "table2"], "run A")
+        new = one_run(["tolerance", "scaling"], "run B")
+        text = merge_sweeps.merge([old, new])
+        heads = [ln for ln in text.split("\n") if ln.startswith("## ")]
+        # Sections once each, in the parts' order; the runs' answers under one heading.
+        self.assertEqual([h.split(":")[0].split(" sweep")[0] for h in heads],
+                         ["## Runs and answers", "## Tolerance", "## The paper's recipe against ours", "## Scaling",
+                          "## Table 2"])
+        self.assertIn("### Parts fd, table2", text)
+        self.assertIn("### Parts tolerance, scaling", text)
+        self.assertIn("- **fd** answer from run A.", text)
+        self.assertIn("### A subsection of fd", text)
+        # Merging the merged file again changes nothing; a later run of a part replaces it.
+        self.assertEqual(merge_sweeps.merge([text]), text)
+        again = merge_sweeps.merge([text, one_run(["table2", "threads"], "run C")])
+        self.assertIn("table2 body from run C.", again)
+        self.assertNotIn("table2 body from run A.", again)
+        self.assertIn("fd body from run A.", again)
+        self.assertIn("*Re-run later: table2;", again)
+        self.assertIn("## Threads", again)
+        # A run all of whose parts were re-run is dropped.
+        self.assertNotIn("run A", merge_sweeps.merge([old, one_run(["fd", "table2"], "run D")]))
 
 
 @unittest.skipIf(RODMESH is None and len(sys.argv) < 2, "needs the rodmesh executable")
