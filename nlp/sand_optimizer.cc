@@ -511,14 +511,24 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
 
     // Keep the phase's design if its equilibria exist (Newton from Ipopt's
     // positions) and the objective did not rise.
+    // A phase that ended by itself offers its final point first; one that a
+    // limit or an interrupt cut offers its best nearly feasible iterate first
+    // (the final one is wherever the cut fell, often far off equilibrium, and
+    // polishing it can take longer than the limit left).
     bool kept = false;
-    std::vector<std::vector<double>> candidates;
+    std::vector<const std::vector<double>*> candidates;
     const bool haveFinal = tnlp->finalPoint().size() == static_cast<std::size_t>(nlp.numVariables());
-    if (haveFinal) candidates.push_back(tnlp->finalPoint());
-    if (!bestIterate.second.empty()) candidates.push_back(bestIterate.second);
+    if (haveFinal) candidates.push_back(&tnlp->finalPoint());
+    if (!bestIterate.second.empty()) {
+      if (tnlp->stopReason() == StopReason::None)
+        candidates.push_back(&bestIterate.second);
+      else
+        candidates.insert(candidates.begin(), &bestIterate.second);
+    }
     warmLambda.clear();
     for (std::size_t c = 0; c < candidates.size(); ++c) {
-      const std::vector<double>& point = candidates[c];
+      const std::vector<double>& point = *candidates[c];
+      const bool isFinal = haveFinal && candidates[c] == &tnlp->finalPoint();
       if (kept) break;
       const double* x = point.data();
       const ControlValues cand = nlp.controls(x);
@@ -544,7 +554,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
                             std::to_string(iterations) + ")");
           // Multipliers for the next phase: Ipopt's final ones, if that is
           // the point kept.
-          if (c == 0 && haveFinal && tnlp->finalMultipliers().size() == static_cast<std::size_t>(nlp.numConstraints())) {
+          if (isFinal && tnlp->finalMultipliers().size() == static_cast<std::size_t>(nlp.numConstraints())) {
             warmLambda = tnlp->finalMultipliers();
             warmObjectiveScale = scaling.objective;
           }
