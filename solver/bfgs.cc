@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <utility>
 
 namespace rodmesh {
@@ -177,6 +178,8 @@ std::string BfgsOptions::isValid() const {
   if (!(stepShrink > 0 && stepShrink < 1)) return "stepShrink must lie in (0, 1)";
   if (!(armijo > 0 && armijo < 0.5)) return "armijo must lie in (0, 0.5)";
   if (maxBacktracks < 1) return "maxBacktracks must be at least 1";
+  if (denseLimit < 0) return "denseLimit must be non-negative";
+  if (memory < 1) return "memory must be at least 1";
   return "";
 }
 
@@ -244,6 +247,24 @@ BfgsResult minimizeBfgs(const BfgsObjective& objective, VectorXd x0, const Vecto
 
   Eigen::MatrixXd H;       // inverse-Hessian approximation, allocated with the first curvature pair
   bool curvature = false;  // H holds curvature information; otherwise the direction is steepest descent
+  // Limited memory (n > denseLimit): the curvature pairs instead of H.
+  const bool limited = n > opt.denseLimit;
+  std::deque<VectorXd> pairS, pairY;
+  std::deque<double> pairRho;
+  auto inverseHessianTimes = [&](const VectorXd& v) -> VectorXd {
+    if (!limited) return H * v;
+    // Two-loop recursion, H0 = (s'y / y'y) I from the newest pair.
+    const int m = static_cast<int>(pairS.size());
+    std::vector<double> alpha(m);
+    VectorXd q = v;
+    for (int i = m - 1; i >= 0; --i) {
+      alpha[i] = pairRho[i] * pairS[i].dot(q);
+      q -= alpha[i] * pairY[i];
+    }
+    q *= pairS.back().dot(pairY.back()) / pairY.back().squaredNorm();
+    for (int i = 0; i < m; ++i) q += (alpha[i] - pairRho[i] * pairY[i].dot(q)) * pairS[i];
+    return q;
+  };
   std::vector<double> accepted{f};
   VectorXd xNew, gNew, d;
   double fNew = kInf;
@@ -258,7 +279,7 @@ BfgsResult minimizeBfgs(const BfgsObjective& objective, VectorXd x0, const Vecto
     if (steepest) {
       d = steepestDirection();
     } else {
-      d = -(H * pg);
+      d = -inverseHessianTimes(pg);
       for (Eigen::Index i = 0; i < n; ++i)
         if (run.held(x, g, i)) d[i] = 0;  // d = -H_FF Pg_F on the free variables
       run.dropBlocked(x, d);
@@ -307,7 +328,14 @@ BfgsResult minimizeBfgs(const BfgsObjective& objective, VectorXd x0, const Vecto
       maxStep = std::min(opt.maxStepLimit, opt.stepGrowth * maxStep);
 
     const double sy = s.dot(y);
-    if (sy > kMinCurvatureCosine * s.norm() * y.norm()) {
+    if (sy > kMinCurvatureCosine * s.norm() * y.norm() && limited) {
+      if (!curvature) pairS.clear(), pairY.clear(), pairRho.clear();  // forgotten after a failed direction
+      pairS.push_back(s);
+      pairY.push_back(y);
+      pairRho.push_back(1 / sy);
+      if (static_cast<int>(pairS.size()) > opt.memory) pairS.pop_front(), pairY.pop_front(), pairRho.pop_front();
+      curvature = true;
+    } else if (sy > kMinCurvatureCosine * s.norm() * y.norm()) {
       if (!curvature) H = Eigen::MatrixXd::Identity(n, n) * (sy / y.squaredNorm());
       // H+ = (I - rho s y') H (I - rho y s') + rho s s', rho = 1 / y's.
       const VectorXd Hy = H * y;

@@ -88,6 +88,12 @@ struct BfgsOptions {
   int maxBacktracks = 20;           // step reductions per line search
   // Ceiling of the cap on |step|_inf.
   double maxStepLimit = std::numeric_limits<double>::infinity();
+  // Up to denseLimit variables the inverse-Hessian approximation is a dense
+  // matrix (full BFGS, 8 n^2 bytes: 3.2 GB at the limit); above it, limited
+  // memory: the last `memory` curvature pairs, applied by the two-loop
+  // recursion (16 n memory bytes).
+  int denseLimit = 20000;
+  int memory = 20;
 
   std::string isValid() const;  // empty if valid, else what is wrong
 };

@@ -111,6 +111,8 @@ TEST(BfgsOptionsTest, IsValidRejectsBadValues) {
       [](BfgsOptions& o) { o.armijo = 0; },
       [](BfgsOptions& o) { o.armijo = 0.5; },
       [](BfgsOptions& o) { o.maxBacktracks = 0; },
+      [](BfgsOptions& o) { o.denseLimit = -1; },
+      [](BfgsOptions& o) { o.memory = 0; },
   };
   for (size_t k = 0; k < bad.size(); ++k) {
     BfgsOptions o;
@@ -144,15 +146,23 @@ TEST(BfgsTest, UnevaluableStartIsNumericalFailure) {
   EXPECT_EQ(r.f, kInf);
 }
 
-void expectRosenbrockConverges(int n, bool chained) {
+// limitedMemory: the limited-memory update (denseLimit 0) with `memory` pairs.
+void expectRosenbrockConverges(int n, bool chained, int limitedMemory = 0) {
   Recorder rec{rosenbrock(chained)};
   BfgsOptions opt;
   opt.gradientTolerance = 1e-10;
+  if (limitedMemory > 0) {
+    opt.denseLimit = 0;
+    opt.memory = limitedMemory;
+    opt.maxIterations = 2000;
+  }
   const BfgsResult r = minimizeBfgs(rec.objective(), standardStart(n), unbounded(n, -1), unbounded(n, 1), opt);
   EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
   EXPECT_LE((r.x - VectorXd::Ones(n)).lpNorm<Eigen::Infinity>(), 1e-6);
   EXPECT_LE(r.f, 1e-12);
   EXPECT_EQ(r.f, rec.minF);
+  // The quasi-Newton directions do the work, not steepest-descent fallbacks.
+  EXPECT_LT(r.steepestSteps, std::max(2, r.iterations / 10)) << r.iterations << " iterations";
   // Probes ask for the value only: one gradient per accepted point.
   EXPECT_EQ(r.failedEvaluations, 0);
   EXPECT_EQ(r.gradientEvaluations, r.iterations + 1);
@@ -165,6 +175,8 @@ void expectRosenbrockConverges(int n, bool chained) {
 TEST(BfgsTest, Rosenbrock2dConverges) { expectRosenbrockConverges(2, false); }
 TEST(BfgsTest, Rosenbrock10dConverges) { expectRosenbrockConverges(10, false); }
 TEST(BfgsTest, ChainedRosenbrock10dConverges) { expectRosenbrockConverges(10, true); }
+TEST(BfgsTest, LimitedMemoryRosenbrock10dConverges) { expectRosenbrockConverges(10, false, 5); }
+TEST(BfgsTest, LimitedMemoryChainedRosenbrock10dConverges) { expectRosenbrockConverges(10, true, 3); }
 
 TEST(BfgsTest, IsDeterministic) {
   BfgsOptions opt;
@@ -243,7 +255,12 @@ struct BoxQuadratic {
   }
 };
 
-TEST(BfgsTest, BoundConstrainedQuadraticSitsOnTheRightBounds) {
+void expectBoxQuadraticSolved(int limitedMemory);
+
+TEST(BfgsTest, BoundConstrainedQuadraticSitsOnTheRightBounds) { expectBoxQuadraticSolved(0); }
+TEST(BfgsTest, LimitedMemoryBoundConstrainedQuadraticSitsOnTheRightBounds) { expectBoxQuadraticSolved(4); }
+
+void expectBoxQuadraticSolved(int limitedMemory) {
   const BoxQuadratic q;
   const int n = int(q.b.size());
   // The test is only meaningful if the unconstrained minimiser is outside the
@@ -262,6 +279,11 @@ TEST(BfgsTest, BoundConstrainedQuadraticSitsOnTheRightBounds) {
 
   BfgsOptions opt;
   opt.gradientTolerance = 1e-12;
+  if (limitedMemory > 0) {
+    opt.denseLimit = 0;
+    opt.memory = limitedMemory;
+    opt.maxIterations = 2000;
+  }
   // Start outside the box (projected first) and inside it.
   for (const VectorXd& x0 : {VectorXd(VectorXd::Constant(n, 0.5)), VectorXd(VectorXd::LinSpaced(n, -2, 3))}) {
     const BfgsResult r = minimizeBfgs(q.objective(), x0, q.lower, q.upper, opt);
