@@ -442,7 +442,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     // Later phases start at a converged design with a small barrier
     // parameter: Fiacco-McCormick's monotone decrease then takes 30-50% fewer
     // iterations than the adaptive rule, which keeps re-raising mu (the
-    // four-pose hat: 27 + 34 against 64 + 66 iterations for radius levels 1
+    // four-pose hat: 32 + 33 against 66 + 66 iterations for radius levels 1
     // and 2, docs/optimization.md). The first phase starts far from any
     // optimum and keeps the adaptive rule (with the monotone one the
     // design-at-its-bounds hard case found no better design in 150
@@ -455,8 +455,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     const bool handsOver = ph + 1 < steps.size() && round == 0;
     const double phaseTolerance = handsOver ? std::max(opt.tolerance, kLevelTolerance) : opt.tolerance;
     if (!userSet.count("tol")) o.SetNumericValue("tol", phaseTolerance);
-    if (!userSet.count("dual_inf_tol"))
-      o.SetNumericValue("dual_inf_tol", handsOver ? std::max(opt.tolerance, kLevelTolerance) : opt.tolerance);
+    if (!userSet.count("dual_inf_tol")) o.SetNumericValue("dual_inf_tol", phaseTolerance);
     SandNlp nlp(model, space, objective, phase, res.controls, states, scaling, opt.threads);
     const int base = iterations;
     std::pair<double, std::vector<double>> bestIterate{std::numeric_limits<double>::infinity(), {}};
@@ -480,18 +479,18 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       it.evaluations = nlp.evaluations();
       res.history.push_back(it);
       if (progress) progress(it);
-      // The best nearly feasible iterate, a fallback when the final one is
-      // not usable (a limit stopped Ipopt mid-way).
-      // Stationary within the phase's tolerance and within 1e-5 of the
-      // smallest load of equilibrium: Newton's polish at the phase end makes
-      // it an equilibrium. Ipopt's own test also wants the violation below
-      // constr_viol_tol (1e-8 of the load), which it may never reach when
-      // the targets are met exactly (the objective flat in many design
-      // directions, steps along them leave equilibrium by 1e-7 to 1e-1 of the
-      // load: a 343-vertex sheet at --tol 1e-2 ran 160 iterations at such a
-      // point, then diverged to 6.6e5 N).
+      // The phase ends when the iterate is stationary within the phase's
+      // tolerance and within 1e-5 of the smallest load of equilibrium:
+      // Newton's polish at the phase end makes it an equilibrium. Ipopt's own
+      // test also wants the violation below constr_viol_tol (1e-8 of the
+      // load), which it may never reach when the targets are met exactly (the
+      // objective flat in many design directions, steps along them leave
+      // equilibrium by 1e-7 to 1e-1 of the load: a 343-vertex sheet at --tol
+      // 1e-2 ran 160 iterations at such a point, then diverged to 6.6e5 N).
       nearlyConverged = iter > 0 && std::isfinite(infDu) && infDu <= phaseTolerance &&
                         it.constraintViolation <= 1e-5 * minLoad;
+      // The best nearly feasible iterate, the other candidate at the phase
+      // end (a limit may stop Ipopt anywhere).
       if (it.constraintViolation <= 1e-3 * minLoad && it.objective < bestIterate.first) {
         bestIterate.first = it.objective;
         bestIterate.second.assign(x, x + nlp.numVariables());
