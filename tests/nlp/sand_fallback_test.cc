@@ -28,7 +28,9 @@ TEST(SandFallback, KeepsItsPhaseDesignsAndArchivesOneThatResolvesFromRest) {
   for (std::size_t i = 0; i < r.fallbacks.size(); ++i) {
     EXPECT_NE(r.fallbacks[i].label.find("kept at the end of"), std::string::npos) << r.fallbacks[i].label;
     EXPECT_TRUE(std::isfinite(r.fallbacks[i].objective));
-    if (i > 0) EXPECT_LE(r.fallbacks[i - 1].objective, r.fallbacks[i].objective) << "best first";
+    if (i > 0) {
+      EXPECT_LE(r.fallbacks[i - 1].objective, r.fallbacks[i].objective) << "best first";
+    }
   }
   const ArchivedDesign a = chooseArchivedDesign(model, space, r, o.optimizer.newton);
   SCOPED_TRACE(a.note);
