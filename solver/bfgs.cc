@@ -261,7 +261,7 @@ BfgsResult minimizeBfgs(const BfgsObjective& objective, VectorXd x0, const Vecto
       alpha[i] = pairRho[i] * pairS[i].dot(q);
       q -= alpha[i] * pairY[i];
     }
-    q *= pairS.back().dot(pairY.back()) / pairY.back().squaredNorm();
+    q *= 1 / (pairRho.back() * pairY.back().squaredNorm());  // s'y / y'y
     for (int i = 0; i < m; ++i) q += (alpha[i] - pairRho[i] * pairY[i].dot(q)) * pairS[i];
     return q;
   };

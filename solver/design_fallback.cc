@@ -17,20 +17,6 @@ std::string millimetres(double metres) {
   return buf;
 }
 
-// Contract §3 RMS over every pose and vertex of a simulation (m).
-double simulationRms(const Scene& scene, const SimulationResult& sim) {
-  double ss = 0.0;
-  long n = 0;
-  for (std::size_t p = 0; p < sim.poses.size(); ++p) {
-    const std::vector<Vec3>& target = scene.poses[p].target;
-    const std::vector<Vec3>& x = sim.poses[p].positions;
-    if (target.size() != x.size()) continue;
-    for (std::size_t v = 0; v < x.size(); ++v) ss += (x[v] - target[v]).squaredNorm();
-    n += static_cast<long>(x.size());
-  }
-  return n > 0 ? std::sqrt(ss / static_cast<double>(n)) : 0.0;
-}
-
 // "pose 'NAME': why" for the first pose that did not converge.
 std::string firstFailure(const SimulationResult& sim) {
   for (const PoseResult& p : sim.poses)
@@ -80,7 +66,7 @@ ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space,
   out.optimizerRms = result.rms;
   out.simulation = simulateAll(model, out.design, newton);
   out.allConverged = out.simulation.allConverged;
-  out.rms = simulationRms(scene, out.simulation);
+  out.rms = rmsError(out.simulation);
   if (out.allConverged) return out;
 
   const std::string finalFailure = firstFailure(out.simulation);
@@ -108,7 +94,7 @@ ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space,
       ++failed;
       continue;
     }
-    const double rms = simulationRms(scene, sim);
+    const double rms = rmsError(sim);
     if (!isInitial && !(rms <= result.initialRms * (1 + 1e-9))) {
       ++worse;
       continue;

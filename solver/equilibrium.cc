@@ -6,6 +6,7 @@
 #include <Eigen/SparseCholesky>
 
 #include <cmath>
+#include <limits>
 #include <cstdio>
 
 namespace rodmesh {
@@ -19,6 +20,17 @@ double rmsError(const std::vector<Vec3>& x, const std::vector<Vec3>& target) {
   double s = 0.0;
   for (std::size_t i = 0; i < x.size(); ++i) s += (x[i] - target[i]).squaredNorm();
   return x.empty() ? 0.0 : std::sqrt(s / static_cast<double>(x.size()));
+}
+
+double rmsError(const SimulationResult& sim) {
+  double ss = 0.0;
+  std::size_t n = 0;
+  for (const PoseResult& p : sim.poses) {
+    if (!p.rmsError) return std::numeric_limits<double>::quiet_NaN();
+    ss += *p.rmsError * *p.rmsError * static_cast<double>(p.positions.size());
+    n += p.positions.size();
+  }
+  return n > 0 ? std::sqrt(ss / static_cast<double>(n)) : 0.0;
 }
 
 std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const EffectSet& effects, int pose,

@@ -63,5 +63,8 @@ std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const
 
 // RMS distance to the target over the given positions (m).
 double rmsError(const std::vector<Vec3>& x, const std::vector<Vec3>& target);
+// Contract §3 RMS error over every pose and vertex of a simulation (from each
+// pose's rmsError), in m; NaN unless every pose has a target.
+double rmsError(const SimulationResult& sim);
 
 }  // namespace rodmesh

@@ -49,11 +49,7 @@ void checkClean(const Scene& scene, const HardCase& c) {
   // The archived design's equilibria, from rest, give the reported RMS.
   const SimulationResult sim = simulateAll(model, r.design, NewtonOptions{});
   ASSERT_TRUE(sim.allConverged);
-  double ss = 0.0;
-  for (int p = 0; p < model.numPoses(); ++p)
-    for (std::size_t v = 0; v < sim.poses[p].positions.size(); ++v)
-      ss += (sim.poses[p].positions[v] - scene.poses[p].target[v]).squaredNorm();
-  const double rms = std::sqrt(ss / (model.numPoses() * scene.vertices.size()));
+  const double rms = rmsError(sim);
   // Hard cases may have several equilibria: the one reached from rest (the
   // one archived) need not be the one the optimizer polished from Ipopt's
   // positions, so judge the design on the former: never worse than the

@@ -25,12 +25,7 @@ double rmsFromRest(const Scene& scene, const Design& d, bool* converged) {
   SceneModel model(scene);
   const SimulationResult sim = simulateAll(model, d, NewtonOptions{});
   *converged = sim.allConverged;
-  double ss = 0.0;
-  int n = 0;
-  for (std::size_t p = 0; p < scene.poses.size(); ++p)
-    for (std::size_t v = 0; v < scene.vertices.size(); ++v, ++n)
-      ss += (sim.poses[p].positions[v] - scene.poses[p].target[v]).squaredNorm();
-  return std::sqrt(ss / n);
+  return rmsError(sim);
 }
 
 // Largest transverse (y) excursion of a pose's positions.

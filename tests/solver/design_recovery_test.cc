@@ -45,11 +45,7 @@ TEST_P(DesignRecovery, CutsTheRmsErrorOfTheDefaultDesignTwentyfold) {
   }
   const SimulationResult sim = simulateAll(model, r.design, NewtonOptions{});
   ASSERT_TRUE(sim.allConverged);
-  double ss = 0.0;
-  for (int p = 0; p < model.numPoses(); ++p)
-    for (std::size_t v = 0; v < sim.poses[p].positions.size(); ++v)
-      ss += (sim.poses[p].positions[v] - pr.scene.poses[p].target[v]).squaredNorm();
-  const double rms = std::sqrt(ss / (model.numPoses() * pr.scene.vertices.size()));
+  const double rms = rmsError(sim);
   EXPECT_NEAR(rms, r.rms, 1e-3 * r.initialRms);
 }
 
