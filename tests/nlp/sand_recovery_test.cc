@@ -19,11 +19,7 @@ namespace {
 double resolvedRms(SceneModel& model, const Scene& scene, const Design& d) {
   const SimulationResult sim = simulateAll(model, d, NewtonOptions{});
   EXPECT_TRUE(sim.allConverged);
-  double ss = 0.0;
-  for (int p = 0; p < model.numPoses(); ++p)
-    for (std::size_t v = 0; v < sim.poses[p].positions.size(); ++v)
-      ss += (sim.poses[p].positions[v] - scene.poses[p].target[v]).squaredNorm();
-  return std::sqrt(ss / (model.numPoses() * scene.vertices.size()));
+  return rmsError(sim);
 }
 
 struct Case {
@@ -65,6 +61,29 @@ INSTANTIATE_TEST_SUITE_P(Parameters, SandRecovery,
                            return std::string(i.param.radii ? "radii" : "") + (i.param.radii && i.param.rest ? "_" : "") +
                                   (i.param.rest ? "rest_shape" : "");
                          });
+
+// --schedule levels: the radius levels, then one joint phase (radii and rest
+// shape together); no rest-shape-only phase, and the hidden design is found.
+TEST(SandRecovery, LevelsScheduleEndsWithOneJointPhaseAndRecovers) {
+  const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
+  SceneModel model(pr.scene);
+  const DesignSpace space(pr.scene, model.effects());
+  SandOptions o;
+  o.readOptionsFile = false;
+  o.optimizer.maxIterations = 400;
+  o.optimizer.schedule = Schedule::Levels;
+  const DesignOptimizerResult r = optimizeSand(model, space, o);
+  ASSERT_NE(r.status.outcome, Outcome::NumericalFailure) << r.status.message;
+  int joint = 0;
+  for (const DesignIterate& it : r.history) {
+    EXPECT_NE(it.phase, "rest_shape");
+    joint += it.phase == "joint";
+  }
+  EXPECT_GT(joint, 0);
+  EXPECT_EQ(r.history.back().phase, "joint");
+  const double rms = resolvedRms(model, pr.scene, r.design);
+  EXPECT_LT(rms, 0.05 * r.initialRms) << r.status.message;
+}
 
 TEST(SandRecovery, ThreadCountDoesNotChangeTheResult) {
   const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, false, 5, 3);
