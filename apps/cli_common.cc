@@ -159,6 +159,7 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
     h.constraintViolation.push_back(it.constraintViolation);
     h.gradientNorm.push_back(it.gradientNorm);
     h.phase.push_back(it.phase);
+    h.confirmedRms.push_back(it.confirmedRms);
   }
   a.history = h;
   ArchiveControlPoints cp;

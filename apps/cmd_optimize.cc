@@ -4,10 +4,19 @@
 // target, archives the design, its control points, the history, and every
 // pose re-solved from scratch under the final design (or, when that fails,
 // under the best earlier design that re-solves: solver/design_fallback.hh).
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <functional>
 #include <iostream>
 #include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
 
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
@@ -28,7 +37,7 @@ struct OptimizeOptions {
   std::string scene;
   std::string output;
   std::string method;  // sand (default when built) or reduced
-  std::string schedule = "paper";
+  std::string schedule;  // default: levels for sand, paper for reduced (docs/optimization.md)
   std::string designDerivatives;  // exact (default), fd or fd-resolve; --method reduced only
   std::vector<std::string> ipopt;
   DesignOptimizerOptions optimizer;
@@ -76,11 +85,117 @@ void checkOptions(OptimizeOptions& o) {
   if (o.method == "sand")
     if (std::string why = checkIpoptOptionsFile(); !why.empty()) throw InputError("optimize: " + why);
 #endif
-  o.optimizer.schedule = o.schedule == "joint"    ? Schedule::Joint
-                         : o.schedule == "levels" ? Schedule::Levels
-                                                  : Schedule::Paper;
+  if (o.schedule.empty()) o.schedule = o.method == "sand" ? "levels" : "paper";
+  o.optimizer.schedule = o.schedule == "joint"        ? Schedule::Joint
+                         : o.schedule == "levels"     ? Schedule::Levels
+                         : o.schedule == "multilevel" ? Schedule::Multilevel
+                                                      : Schedule::Paper;
   if (std::string why = o.optimizer.isValid(); !why.empty()) throw InputError("optimize: " + why);
 }
+
+// Keeps --time-limit, SIGINT and SIGTERM when the optimizer cannot answer
+// them itself: it polls its limits between iterations, and one iteration can
+// be a MUMPS factorization or a Newton solve that runs for minutes. When the
+// run has not ended kGrace seconds after its time limit or after the first
+// signal, the watchdog archives the best design confirmed so far (already
+// re-solved from rest on the monitor's thread, solver/design_monitor.hh; the
+// initial design before any other) and ends the process with exit 1; the
+// archive's message says why.
+class Watchdog {
+ public:
+  using Clock = std::chrono::steady_clock;
+  static constexpr double kGrace = 3.0;  // s
+
+  // `write(design, initial, history, message)` archives `design`.
+  using Writer = std::function<void(const ConfirmedDesign& design, const ConfirmedDesign* initial,
+                                    const std::vector<DesignIterate>& history, const std::string& message)>;
+
+  Watchdog(double timeLimit, Writer write) : timeLimit_(timeLimit), write_(std::move(write)), t0_(Clock::now()) {
+    thread_ = std::thread([this] { run(); });
+  }
+  ~Watchdog() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    wake_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+  Watchdog(const Watchdog&) = delete;
+  Watchdog& operator=(const Watchdog&) = delete;
+
+  void confirmed(const ConfirmedDesign& d) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (d.initial) initial_ = d;
+    else best_ = d;
+  }
+  void iterate(const DesignIterate& it) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    history_.push_back(it);
+  }
+  // The main thread's archive: true if it may write it; false when the
+  // watchdog is writing its own (the process is about to end).
+  bool claimArchive() {
+    int expected = 0;
+    return state_.compare_exchange_strong(expected, 1);
+  }
+
+ private:
+  void run() {
+    std::optional<Clock::time_point> signalled;
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!done_) {
+      wake_.wait_for(lock, std::chrono::milliseconds(100));
+      if (done_) break;
+      const auto now = Clock::now();
+      if (!signalled && interruptRequested()) signalled = now;
+      const double elapsed = std::chrono::duration<double>(now - t0_).count();
+      const bool late = (timeLimit_ > 0 && elapsed > timeLimit_ + kGrace) ||
+                        (signalled && std::chrono::duration<double>(now - *signalled).count() > kGrace);
+      if (!late) continue;
+      const ConfirmedDesign* design = best_ ? &*best_ : initial_ ? &*initial_ : nullptr;
+      if (!design) continue;  // nothing re-solved from rest yet: the run answers as soon as it can
+      int expected = 0;
+      if (!state_.compare_exchange_strong(expected, 2)) return;  // the main thread is writing
+      char why[256];
+      if (signalled)
+        std::snprintf(why, sizeof why, "interrupted (%s); the optimizer did not stop within %.0f s of the signal",
+                      interruptSignal() == SIGTERM ? "SIGTERM" : "SIGINT", kGrace);
+      else
+        std::snprintf(why, sizeof why,
+                      "time limit reached; the optimizer did not stop within %.0f s of the limit (stuck in one "
+                      "computation)",
+                      kGrace);
+      const std::string message = std::string(why) + "; archived " + design->label +
+                                  ", the best design confirmed from rest during the run";
+      std::cerr << "warning: " << message << "\n";
+      const std::vector<DesignIterate> history = history_;
+      const ConfirmedDesign chosen = *design;
+      const std::optional<ConfirmedDesign> initial = initial_;
+      lock.unlock();
+      int status = kExitNotConverged;
+      try {
+        write_(chosen, initial ? &*initial : nullptr, history, message);
+      } catch (const std::exception& e) {
+        std::cerr << "rodmesh: error: " << e.what() << "\n";
+        status = kExitNotConverged;
+      }
+      std::fflush(nullptr);
+      std::_Exit(status);
+    }
+  }
+
+  double timeLimit_;
+  Writer write_;
+  Clock::time_point t0_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool done_ = false;
+  std::optional<ConfirmedDesign> best_, initial_;
+  std::vector<DesignIterate> history_;
+  std::atomic<int> state_{0};  // 0 running, 1 the main thread archives, 2 the watchdog archives
+  std::thread thread_;
+};
 
 }  // namespace
 
@@ -103,10 +218,10 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                   "Ipopt's tol and dual_inf_tol, the objective being scaled to 1 at the start of each phase")
       ->capture_default_str();
   app->add_option("--schedule", opts->schedule,
-                  "paper (radii by levels, then rest shape and radii alternating), joint (everything at once) or "
-                  "levels (radii by levels, then radii and rest shape together)")
-      ->check(CLI::IsMember({"paper", "joint", "levels"}))
-      ->capture_default_str();
+                  "paper (radii by levels, then rest shape and radii alternating; the default of --method reduced), "
+                  "levels (radii by levels, then radii and rest shape together; the default of --method sand), "
+                  "joint (everything at once) or multilevel (everything together, level by level)")
+      ->check(CLI::IsMember({"paper", "joint", "levels", "multilevel"}));
   app->add_option("--threads", opts->optimizer.threads, "poses solved in parallel (results do not depend on it)")
       ->capture_default_str();
   app->add_option("--design-derivatives", opts->designDerivatives,
@@ -156,16 +271,55 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
 
     installInterruptFlag();
     o.optimizer.stopRequested = [] { return interruptRequested(); };
+    // The watchdog's archive: the confirmed design with its from-rest
+    // positions, the history so far, status not_converged.
+    auto watchdogWrite = [&](const ConfirmedDesign& d, const ConfirmedDesign* initial,
+                             const std::vector<DesignIterate>& history, const std::string& message) {
+      DesignOptimizerResult wr;
+      wr.status = {interruptRequested() ? Outcome::Interrupted : Outcome::TimeLimit, message};
+      wr.controls = d.controls;
+      wr.design = d.design;
+      wr.history = history;
+      wr.iterations = history.empty() ? 0 : history.back().iteration;
+      wr.timeSeconds = history.empty() ? 0.0 : history.back().elapsed;
+      wr.peakMemoryBytes = peakResidentMemory();
+      if (initial) {
+        wr.initialRms = initial->rms;
+        wr.initialObjective = initial->objective;
+        for (const PoseResult& p : initial->simulation.poses) wr.initialPositions.push_back(p.positions);
+      }
+      ArchivedDesign chosen;
+      chosen.controls = d.controls;
+      chosen.design = d.design;
+      chosen.simulation = d.simulation;
+      chosen.allConverged = true;
+      chosen.fallback = true;  // not the optimizer's final design: no equilibrium gap
+      chosen.label = d.label;
+      chosen.rms = d.rms;
+      Archive a = optimizeArchive(scene, model, space, wr, chosen, o.method);
+      a.version = versionString();
+      writeArchive(a, o.output);
+      if (!quiet) std::cerr << "wrote " << o.output << " (" << a.status << ")\n";
+    };
+    Watchdog watchdog(o.optimizer.timeLimit, watchdogWrite);
+    o.optimizer.onConfirmed = [&watchdog](const ConfirmedDesign& d) { watchdog.confirmed(d); };
     auto progress = [&](const DesignIterate& it) {
+      watchdog.iterate(it);
       if (quiet) return;
+      // The best design confirmed so far (re-solved from rest on the
+      // monitor's thread) and the iteration that offered it.
+      char best[64] = "";
+      if (it.confirmedIteration >= 0)
+        std::snprintf(best, sizeof best, "  best %.4f mm @%d", it.confirmedRms * 1e3, it.confirmedIteration);
       if (o.method == "sand")
-        std::fprintf(stderr, "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  viol %.2e N  dual inf %.2e  step %.2e  %s\n",
+        std::fprintf(stderr,
+                     "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  viol %.2e N  dual inf %.2e  step %.2e  %s%s\n",
                      it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.constraintViolation,
-                     it.dualInfeasibility, it.step, formatSeconds(it.elapsed).c_str());
+                     it.dualInfeasibility, it.step, formatSeconds(it.elapsed).c_str(), best);
       else
-        std::fprintf(stderr, "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  |g| %.2e  step %.2e  viol 0 N  %s\n",
+        std::fprintf(stderr, "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  |g| %.2e  step %.2e  viol 0 N  %s%s\n",
                      it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.gradientNorm, it.step,
-                     formatSeconds(it.elapsed).c_str());
+                     formatSeconds(it.elapsed).c_str(), best);
     };
     DesignOptimizerResult r;
 #ifdef RODMESH_HAVE_NLP
@@ -219,6 +373,8 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     }
     const bool converged = a.status == "converged";
     const std::optional<double> rms = overallRmsError(a);
+    if (!watchdog.claimArchive())
+      for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));  // the watchdog writes and ends the process
     writeArchive(a, o.output);
     uninstallInterruptFlag();
     if (!quiet) {

@@ -103,6 +103,7 @@ void checkConsistent(const Archive& a) {
     same(h.rmsError.size(), "rms_error", false);
     same(h.level.size(), "level", true);
     same(h.constraintViolation.size(), "constraint_violation", true);
+    same(h.confirmedRms.size(), "confirmed_rms", true);
     same(h.gradientNorm.size(), "gradient_norm", true);
     same(h.phase.size(), "phase", true);
   }
@@ -230,6 +231,8 @@ void writeContents(const Archive& a, hid_t file) {
     if (!hs.gradientNorm.empty())
       writeDoubles(h, "gradient_norm", hs.gradientNorm.data(), {(hsize_t)hs.gradientNorm.size()});
     if (!hs.phase.empty()) writeStrings(h, "phase", hs.phase);
+    if (!hs.confirmedRms.empty())
+      writeDoubles(h, "confirmed_rms", hs.confirmedRms.data(), {(hsize_t)hs.confirmedRms.size()});
   }
 }
 

@@ -85,6 +85,9 @@ struct ArchiveHistory {
   std::vector<double> constraintViolation;  // N: equilibrium violation (SAND; 0 for reduced)
   std::vector<double> gradientNorm;         // extension: norm of the objective's (reduced) gradient
   std::vector<std::string> phase;           // extension: "radii", "rest_shape" or "joint" (both)
+  // Extension: RMS (m), re-solved from rest, of the best design confirmed so
+  // far at this iteration (solver/design_monitor.hh); NaN before the first.
+  std::vector<double> confirmedRms;
 };
 
 // The design's control points (contract §4), C of them.

@@ -604,6 +604,7 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
           r.numbers(hg, hp, "constraint_violation", false, {n}, per).value_or(std::vector<double>());
       h.gradientNorm = r.numbers(hg, hp, "gradient_norm", false, {n}, per).value_or(std::vector<double>());
       h.phase = r.stringSeries(hg, hp, "phase", n, per).value_or(std::vector<std::string>());
+      h.confirmedRms = r.numbers(hg, hp, "confirmed_rms", false, {n}, per).value_or(std::vector<double>());
       a.history = std::move(h);
     }
   }

@@ -3,6 +3,7 @@
 #include "nlp/sand.hh"
 
 #include "nlp/sand_nlp.hh"
+#include "solver/design_monitor.hh"
 #include "solver/newton.hh"
 #include "solver/parallel.hh"
 
@@ -17,6 +18,7 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <thread>
 
 namespace rodmesh {
 namespace {
@@ -33,7 +35,25 @@ using Ipopt::Number;
 
 // What stopped a phase from inside the iteration callback.
 // NearlyConverged: the phase's own test, see the schedule loop.
-enum class StopReason { None, TimeLimit, Interrupted, NearlyConverged };
+// Diverging: the iterates left equilibrium by far more than any load (see
+// kDivergedLoads), the phase is stopped and retried.
+enum class StopReason { None, TimeLimit, Interrupted, NearlyConverged, Diverging };
+
+// A phase is diverging when kDivergedIterates iterates in a row are off
+// equilibrium by more than kDivergedLoads times the largest pose load (N), or
+// an iterate's dual infeasibility exceeds kDivergedDualInfeasibility. Runs
+// that recover stay below 25 loads (the paper's Sheet: 72 N off at 3 N
+// pulls) or leave it for single iterations (a cantilever bent far by 2 mN:
+// one iterate 1500 loads off); a rest-shape phase whose linearised first step
+// moved a sheet out of plane by about an edge length stayed 800-1600 loads
+// off, and every factorization took longer (benchmarks/defaults, small_rest).
+constexpr double kDivergedLoads = 100.0;
+constexpr int kDivergedIterates = 3;
+constexpr double kDivergedDualInfeasibility = 1e10;
+// The retry of a diverged phase keeps its iterates within this 1-norm of the
+// scaled constraints (Ipopt's theta_max_fact, default 1e4): steps that leave
+// equilibrium further are cut by the filter line search.
+constexpr double kRetryThetaMaxFact = 1e-2;
 
 class SandTnlp : public Ipopt::TNLP {
  public:
@@ -42,7 +62,13 @@ class SandTnlp : public Ipopt::TNLP {
     std::function<StopReason()> stop;
   };
 
-  SandTnlp(SandNlp& nlp, Hooks hooks) : nlp_(nlp), hooks_(std::move(hooks)) {}
+  SandTnlp(SandNlp& nlp, Hooks hooks) : nlp_(nlp), hooks_(std::move(hooks)) {
+    // Fault injection for the tests of `optimize`'s watchdog
+    // (tests/cli/interrupt_cli_test.cc): RODMESH_TEST_SLOW_HESSIAN=S makes
+    // every Hessian evaluation after the first take S seconds longer, as a
+    // factorization that cannot finish in time would.
+    if (const char* s = std::getenv("RODMESH_TEST_SLOW_HESSIAN")) slowHessian_ = std::max(0.0, std::atof(s));
+  }
 
   bool get_nlp_info(Index& n, Index& m, Index& nnzJac, Index& nnzHess, IndexStyleEnum& style) override {
     n = nlp_.numVariables();
@@ -119,6 +145,8 @@ class SandTnlp : public Ipopt::TNLP {
       std::copy(nlp_.hessianCols().begin(), nlp_.hessianCols().end(), jCol);
       return true;
     }
+    if (slowHessian_ > 0 && hessianCalls_++ > 0)
+      std::this_thread::sleep_for(std::chrono::duration<double>(slowHessian_));
     return nlp_.hessian(x, sigma, lambda, values);
   }
 
@@ -157,6 +185,8 @@ class SandTnlp : public Ipopt::TNLP {
   Hooks hooks_;
   std::vector<double> current_, final_, finalLambda_, warmLambda_;
   double warmMu_ = 0.0;
+  double slowHessian_ = 0.0;
+  int hessianCalls_ = 0;
   Ipopt::SolverReturn status_ = Ipopt::UNASSIGNED;
   int iterations_ = 0;
   StopReason stopReason_ = StopReason::None;
@@ -331,18 +361,25 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     if (progress) progress(it);
   }
   if (!(f0 > 0)) return finish(Outcome::Converged, "the initial design meets every target");
+  // Ipopt's iterates are designs, but not equilibria: the monitor re-solves
+  // them on a second thread, so that a design that re-solves from rest is at
+  // hand at every moment (solver/design_monitor.hh).
+  std::unique_ptr<DesignMonitor> monitor;
+  if (opt.confirmDesigns)
+    monitor = std::make_unique<DesignMonitor>(scene, space, opt.newton, states, f0, t0, opt.onConfirmed);
 
   // Scaling: objective relative to the initial design's, constraints
   // relative to each pose's load (newtons).
   SandScaling scaling;
   scaling.objective = f0;
-  double minLoad = std::numeric_limits<double>::infinity();
+  double minLoad = std::numeric_limits<double>::infinity(), maxLoad = 0.0;
   for (int k = 0; k < K; ++k) {
     PoseSystem& sys = model.pose(k);
     sys.setLoadFactor(1.0);
     const double L = loadScale(sys, d0);
     scaling.load.push_back(std::isfinite(L) && L > 0 ? L : 1.0);
     minLoad = std::min(minLoad, scaling.load.back());
+    maxLoad = std::max(maxLoad, scaling.load.back());
   }
 
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
@@ -386,6 +423,10 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     if (o.GetNumericValue("tol", value, "") && value != opt.tolerance) userSet.insert("tol");
     if (o.GetNumericValue("dual_inf_tol", value, "") && value != opt.tolerance) userSet.insert("dual_inf_tol");
     if (o.GetNumericValue("mu_init", value, "")) userSet.insert("mu_init");
+    if (o.GetNumericValue("theta_max_fact", value, "")) userSet.insert("theta_max_fact");
+    Ipopt::Index trigger = 0;
+    if (o.GetIntegerValue("watchdog_shortened_iter_trigger", trigger, ""))
+      userSet.insert("watchdog_shortened_iter_trigger");
   }
   const std::vector<DesignStep> steps = designSchedule(scene, space, opt);
   Outcome stop = Outcome::Converged;
@@ -397,8 +438,14 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   double warmObjectiveScale = 1.0;            // and its objective scale f_s
   DesignFallbacks fallbacks;                  // the kept phase designs (solver/design_fallback.hh)
 
+  bool retrying = false;  // the phase is run again after diverging
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignPhase& phase = steps[ph].phase;
+    if (!userSet.count("theta_max_fact")) o.SetNumericValue("theta_max_fact", retrying ? kRetryThetaMaxFact : 1e4);
+    // Ipopt's watchdog accepts a full step after repeated short ones, which
+    // is how a held-near-equilibrium retry left it again (by 3e3 loads).
+    if (!userSet.count("watchdog_shortened_iter_trigger"))
+      o.SetIntegerValue("watchdog_shortened_iter_trigger", retrying ? 0 : 10);
     const int round = steps[ph].round;
     if (round > 0 && phase.restShape) roundStart = res.objective;
     const int remaining = opt.maxIterations - iterations;
@@ -459,7 +506,13 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     SandNlp nlp(model, space, objective, phase, res.controls, states, scaling, opt.threads);
     const int base = iterations;
     std::pair<double, std::vector<double>> bestIterate{std::numeric_limits<double>::infinity(), {}};
-    bool nearlyConverged = false;
+    bool nearlyConverged = false, targetsMet = false, stalled = false, diverging = false;
+    int farOff = 0;  // iterates in a row more than kDivergedLoads off equilibrium
+    // Progress of the settled iterates (within 1e-5 of the load of
+    // equilibrium: Newton's polish makes them equilibria); the phase starts
+    // at an equilibrium.
+    StallDetector stall(opt.stallWindow, opt.stallRelativeDecrease);
+    stall.add(res.objective, true);
     SandTnlp::Hooks hooks;
     hooks.progress = [&](int iter, const double* x, double infDu, double alphaPr) {
       if (iter == 0 && base > 0) return;  // a phase starts where the previous one ended
@@ -477,6 +530,11 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       it.step = alphaPr;
       it.elapsed = since(t0);
       it.evaluations = nlp.evaluations();
+      if (monitor) {
+        monitor->offer(nlp.controls(x), it.iteration,
+                       "the design of " + describeStep(steps[ph]) + ", iteration " + std::to_string(it.iteration));
+        monitor->bestSummary(it.confirmedRms, it.confirmedIteration);
+      }
       res.history.push_back(it);
       if (progress) progress(it);
       // The phase ends when the iterate is stationary within the phase's
@@ -487,8 +545,20 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       // objective flat in many design directions, steps along them leave
       // equilibrium by 1e-7 to 1e-1 of the load: a 343-vertex sheet at --tol
       // 1e-2 ran 160 iterations at such a point, then diverged to 6.6e5 N).
-      nearlyConverged = iter > 0 && std::isfinite(infDu) && infDu <= phaseTolerance &&
-                        it.constraintViolation <= 1e-5 * minLoad;
+      const bool settled = it.constraintViolation <= 1e-5 * minLoad;
+      nearlyConverged = iter > 0 && std::isfinite(infDu) && infDu <= phaseTolerance && settled;
+      // Also when the targets are met to round-off (Ipopt's dual
+      // infeasibility need not fall at such a point: the objective's scale
+      // is gone, what is left is the equilibria's own round-off), and when
+      // the settled iterates stopped improving (StallDetector).
+      if (!(iter == 0 && base > 0))
+        stall.add(settled ? it.objective : std::numeric_limits<double>::infinity(),
+                  it.constraintViolation <= 1e-3 * minLoad);
+      targetsMet = iter > 0 && settled && it.objective <= kTargetsMetRatio * res.initialObjective;
+      stalled = iter > 0 && stall.stalled();
+      nearlyConverged = nearlyConverged || targetsMet || stalled;
+      farOff = it.constraintViolation > kDivergedLoads * maxLoad ? farOff + 1 : 0;
+      diverging = farOff >= kDivergedIterates || !(infDu <= kDivergedDualInfeasibility);
       // The best nearly feasible iterate, the other candidate at the phase
       // end (a limit may stop Ipopt anywhere).
       if (it.constraintViolation <= 1e-3 * minLoad && it.objective < bestIterate.first) {
@@ -500,6 +570,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       if (opt.stopRequested && opt.stopRequested()) return StopReason::Interrupted;
       if (opt.timeLimit > 0 && since(t0) >= opt.timeLimit) return StopReason::TimeLimit;
       if (nearlyConverged) return StopReason::NearlyConverged;
+      if (diverging) return StopReason::Diverging;
       return StopReason::None;
     };
     Ipopt::SmartPtr<SandTnlp> tnlp = new SandTnlp(nlp, hooks);
@@ -576,6 +647,23 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     }
     const Ipopt::SolverReturn sr = tnlp->status();
     const bool nearlySolved = tnlp->stopReason() == StopReason::NearlyConverged;
+    if (tnlp->stopReason() == StopReason::Diverging) {
+      // Far from equilibrium Ipopt's linearisations are poor and its
+      // iterates rarely come back (each factorization slower than the last):
+      // run the phase again from the design kept so far, with the iterates
+      // held near equilibrium. A second divergence ends the phase.
+      if (!retrying) {
+        retrying = true;
+        --ph;
+        continue;
+      }
+      stop = Outcome::Stalled;
+      message = "Ipopt's iterates left equilibrium by more than " + std::to_string(static_cast<int>(kDivergedLoads)) +
+                " times the largest load in " + describeStep(steps[ph]) +
+                ", also when held near equilibrium; the best design so far is the result";
+      break;
+    }
+    retrying = false;
     if (tnlp->stopReason() != StopReason::None && !nearlySolved) {
       stop = tnlp->stopReason() == StopReason::Interrupted ? Outcome::Interrupted : Outcome::TimeLimit;
       message = stop == Outcome::Interrupted ? "interrupted" : "time limit reached";
@@ -600,9 +688,15 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     }
     // A solved phase that found nothing better leaves the best design as it
     // was; the schedule goes on.
-    if (res.objective <= 1e-20 * res.initialObjective) {
+    if (targetsMet || res.objective <= kTargetsMetRatio * res.initialObjective) {
       message = "every target met to round-off";
       break;
+    }
+    if (stalled && ph + 1 == steps.size()) {
+      std::ostringstream m;
+      m << "no meaningful progress: the objective fell by less than " << opt.stallRelativeDecrease * 100.0
+        << "% over the last " << opt.stallWindow << " iterations near equilibrium";
+      message = m.str();
     }
     // The rounds end when one (rest shape, then radii) lowers the objective
     // by less than roundRelativeDecrease.
@@ -615,6 +709,13 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
         message = m.str();
         break;
       }
+    }
+  }
+  if (monitor) {
+    monitor->stop();
+    if (adoptConfirmed(*monitor, stop, res, rawStates, fallbacks)) {
+      message += "; the best design confirmed during the run (iteration " + std::to_string(monitor->best()->iteration) +
+                 ") is better than the last phase's and is the result";
     }
   }
   res.iterations = iterations;

@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <memory>
 #include <thread>
 
 #include <sys/resource.h>
@@ -70,6 +71,8 @@ std::string DesignOptimizerOptions::isValid() const {
   if (!(phaseRelativeDecrease >= 0 && phaseRelativeDecrease < 1) ||
       !(roundRelativeDecrease >= 0 && roundRelativeDecrease < 1))
     return "relative decreases of a phase and of a round must lie in [0, 1)";
+  if (stallWindow < 1 || !(stallRelativeDecrease >= 0 && stallRelativeDecrease < 1))
+    return "the stall window must be at least 1 and its relative decrease in [0, 1)";
   return newton.isValid();
 }
 
@@ -301,6 +304,8 @@ std::vector<DesignStep> designSchedule(const Scene& scene, const DesignSpace& sp
   std::vector<DesignStep> steps;
   if (opt.schedule == Schedule::Joint) {
     steps.push_back({{radii, rest, finest}, 0});
+  } else if (opt.schedule == Schedule::Multilevel) {
+    for (int l = 0; l <= finest; ++l) steps.push_back({{radii, rest, l}, 0});
   } else {
     if (radii)
       for (int l = 0; l <= finest; ++l) steps.push_back({{true, false, l}, 0});
@@ -318,6 +323,38 @@ std::vector<DesignStep> designSchedule(const Scene& scene, const DesignSpace& sp
     }
   }
   return steps;
+}
+
+void StallDetector::add(double settledObjective, bool nearEquilibrium) {
+  const double previous = best_.empty() ? std::numeric_limits<double>::infinity() : best_.back();
+  best_.push_back(std::min(previous, std::isnan(settledObjective) ? previous : settledObjective));
+  near_.push_back(nearEquilibrium ? 1 : 0);
+}
+
+double StallDetector::best() const { return best_.empty() ? std::numeric_limits<double>::infinity() : best_.back(); }
+
+bool StallDetector::stalled() const {
+  const int n = static_cast<int>(best_.size());
+  if (window_ < 1 || n <= window_) return false;
+  const double before = best_[n - 1 - window_], now = best_[n - 1];
+  if (!std::isfinite(before)) return false;
+  for (int i = n - window_; i < n; ++i)
+    if (!near_[i]) return false;
+  return now > (1.0 - relative_) * before;
+}
+
+bool adoptConfirmed(const DesignMonitor& monitor, Outcome outcome, DesignOptimizerResult& res,
+                    std::vector<PoseState>& states, DesignFallbacks& fallbacks) {
+  const std::optional<ConfirmedDesign> best = monitor.best();
+  if (!best) return false;
+  fallbacks.add(best->controls, best->objective, best->rms, best->label + " (confirmed from rest during the run)");
+  if (outcome == Outcome::Converged || !(best->objective < res.objective)) return false;
+  res.controls = best->controls;
+  res.design = best->design;
+  res.objective = best->objective;
+  res.rms = best->rms;
+  states = best->states;
+  return true;
 }
 
 long peakResidentMemory() {
@@ -364,6 +401,13 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   res.rms = res.initialRms;
   res.history.push_back({0, 0, "initial", res.objective, res.rms, 0.0, 0.0, since(t0), 1});
   if (progress) progress(res.history.back());
+  // The accepted iterates are equilibria on the optimizer's branch (warm
+  // starts); the monitor confirms them from rest on a second thread
+  // (solver/design_monitor.hh).
+  std::unique_ptr<DesignMonitor> monitor;
+  if (opt.confirmDesigns && res.initialObjective > 0)
+    monitor = std::make_unique<DesignMonitor>(scene, space, opt.newton, states, res.initialObjective, t0,
+                                              opt.onConfirmed);
 
   const std::vector<DesignStep> steps = designSchedule(scene, space, opt);
 
@@ -416,7 +460,9 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       acceptedZ = y.cwiseProduct(s);
       ro.accept(acceptedZ);
     };
-    cb.stopRequested = opt.stopRequested;
+    // Targets met to round-off end the run (kTargetsMetRatio).
+    bool targetsMet = false;
+    cb.stopRequested = [&] { return targetsMet || (opt.stopRequested && opt.stopRequested()); };
     const int base = iterations;
     const std::string stepName = describeStep(steps[ph]);
     cb.progress = [&](const BfgsIterate& it) {
@@ -432,9 +478,14 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       di.elapsed = since(t0);
       di.evaluations = it.evaluations;
       res.history.push_back(di);
-      if (acceptedZ.size() > 0)
-        fallbacks.add(space.unpack(phase, acceptedZ, res.controls), di.objective, di.rms,
-                      "the design of " + stepName + ", iteration " + std::to_string(di.iteration));
+      if (acceptedZ.size() > 0) {
+        const ControlValues c = space.unpack(phase, acceptedZ, res.controls);
+        const std::string label = "the design of " + stepName + ", iteration " + std::to_string(di.iteration);
+        fallbacks.add(c, di.objective, di.rms, label);
+        if (monitor) monitor->offer(c, di.iteration, label);
+      }
+      if (monitor) monitor->bestSummary(di.confirmedRms, di.confirmedIteration);
+      targetsMet = di.objective <= kTargetsMetRatio * res.initialObjective;
       if (progress) progress(di);
     };
     auto fobj = [&](const Eigen::VectorXd& y, double& f, Eigen::VectorXd* g) {
@@ -460,6 +511,11 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     }
     states = ro.warmStates();
     const Outcome o = br.status.outcome;
+    if (targetsMet) {
+      stop = Outcome::Converged;
+      message = "every target met to round-off";
+      break;
+    }
     if (o == Outcome::TimeLimit || o == Outcome::Interrupted || o == Outcome::NumericalFailure) {
       stop = o;
       // The phase's BFGS had what was left of --time-limit; name the user's.
@@ -496,6 +552,12 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     }
   }
 
+  if (monitor) {
+    monitor->stop();
+    if (adoptConfirmed(*monitor, stop, res, states, fallbacks))
+      message += "; the best design confirmed during the run (iteration " + std::to_string(monitor->best()->iteration) +
+                 ") is better than the last phase's and is the result";
+  }
   res.design = space.toDesign(res.controls);
   // The optimizer's own equilibria under the final design (warm started).
   {

@@ -26,9 +26,11 @@
 #include "model/outcome.hh"
 #include "solver/bfgs.hh"
 #include "solver/design_fallback.hh"
+#include "solver/design_monitor.hh"
 #include "solver/equilibrium.hh"
 #include "solver/newton.hh"
 
+#include <limits>
 #include <functional>
 #include <string>
 #include <vector>
@@ -58,7 +60,9 @@ class TargetObjective {
 // paper's §4.3, contract §4). Joint: every free parameter at the finest level
 // from the start. Levels: radii level by level, then radii and rest shape
 // together at the finest level (one phase instead of the alternation).
-enum class Schedule { Paper, Joint, Levels };
+// Multilevel: every free parameter together, level by level (the paper's
+// multiresolution without its alternation).
+enum class Schedule { Paper, Joint, Levels, Multilevel };
 
 // How the reduced method gets the design part of its gradient
 // (docs/optimization.md, "Design derivatives").
@@ -82,7 +86,8 @@ constexpr double fdForceStep = 6e-6;
 constexpr double fdResolveStep = 1e-4;
 
 struct DesignOptimizerOptions {
-  int maxIterations = 200;     // optimizer iterations over the whole schedule
+  int maxIterations = 2000;    // optimizer iterations over the whole schedule (a limit, not the usual end:
+                               // docs/optimization.md, "Stopping")
   double timeLimit = 0.0;      // s, 0 = none
   double tolerance = 1e-6;     // a phase converges when its projected gradient falls below this fraction of
                                // its value at the start of the phase
@@ -98,8 +103,19 @@ struct DesignOptimizerOptions {
   double roundRelativeDecrease = 1e-2;  // the run ends when a rest-shape + radii round lowers the objective by
                                         // less than this fraction
   int maxAlternations = 20;             // rest-shape / radii rounds at most (paper schedule)
+  // SAND: a phase also ends when its settled iterates lowered the objective
+  // by less than stallRelativeDecrease over stallWindow iterations
+  // (StallDetector).
+  int stallWindow = 20;
+  double stallRelativeDecrease = 1e-3;
   NewtonOptions newton;        // equilibrium solves
   std::function<bool()> stopRequested;  // SIGINT
+  // Re-solve the optimizer's designs on a second thread while it runs
+  // (solver/design_monitor.hh): the run holds a design that re-solves from
+  // rest at every moment, and ends with the better of it and its own.
+  bool confirmDesigns = true;
+  // Called on the monitor's thread with every newly confirmed best design.
+  std::function<void(const ConfirmedDesign&)> onConfirmed;
   std::string isValid() const;
 };
 
@@ -113,6 +129,11 @@ struct DesignIterate {
   // SAND: the largest equilibrium residual at the iterate (N) and Ipopt's
   // dual infeasibility; 0 for the reduced method (its iterates are equilibria).
   double constraintViolation = 0.0, dualInfeasibility = 0.0;
+  // The best design confirmed so far (re-solved from rest on the monitor's
+  // thread, solver/design_monitor.hh): its RMS (m) and the iteration that
+  // offered it; NaN and -1 before the first.
+  double confirmedRms = std::numeric_limits<double>::quiet_NaN();
+  int confirmedIteration = -1;
 };
 
 struct DesignOptimizerResult {
@@ -155,6 +176,43 @@ Eigen::VectorXd designVariableScale(const DesignSpace& space, const DesignPhase&
 long peakResidentMemory();
 
 using DesignProgress = std::function<void(const DesignIterate&)>;
+
+// When further iterations cannot lower the objective meaningfully
+// (docs/optimization.md, "Stopping"): over the last `window` iterations the
+// best objective among settled iterates (equilibria, or SAND iterates within
+// a small fraction of the load of equilibrium) fell by less than
+// `relativeDecrease` of its value, and every iterate of the window was near
+// equilibrium (an optimizer on an excursion away from the constraints, to
+// come back lower, is not stalled).
+class StallDetector {
+ public:
+  StallDetector(int window, double relativeDecrease) : window_(window), relative_(relativeDecrease) {}
+  // One iterate: its objective if it is settled (+inf otherwise), and
+  // whether it is near equilibrium.
+  void add(double settledObjective, bool nearEquilibrium);
+  bool stalled() const;
+  double best() const;  // the lowest settled objective so far (+inf if none)
+
+ private:
+  int window_;
+  double relative_;
+  std::vector<double> best_;        // running minimum of the settled objective, per iterate
+  std::vector<char> near_;          // near equilibrium, per iterate
+};
+
+// Targets met to round-off: the objective at most this fraction of the
+// initial design's (RMS at most 1e-6 of the initial RMS), at an equilibrium.
+constexpr double kTargetsMetRatio = 1e-12;
+
+// At the end of a run (the monitor stopped): the monitor's best design joins
+// the fallbacks and, when `outcome` is not Converged and its objective from
+// rest is lower than the run's own result, becomes the result (`states`: its
+// warm-started equilibria). True if it did. A run that ends by its own tests
+// keeps its own final design, so that its result does not depend on how far
+// the monitor's thread got; a run cut short (limit, signal, failure) is
+// timing-dependent anyway and keeps the better design.
+bool adoptConfirmed(const DesignMonitor& monitor, Outcome outcome, DesignOptimizerResult& res,
+                    std::vector<PoseState>& states, DesignFallbacks& fallbacks);
 
 DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
                                       const DesignOptimizerOptions& options, const DesignProgress& progress = {});

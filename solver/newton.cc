@@ -205,7 +205,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
       rep.outcome = saddle ? Outcome::Stalled : Outcome::MaxIterations;
       break;
     }
-    if (hasDeadline && Clock::now() > deadline) {
+    if ((hasDeadline && Clock::now() > deadline) || (opt.cancel && opt.cancel->load())) {
       rep.outcome = Outcome::TimeLimit;
       rep.message = "time limit reached";
       break;
@@ -568,7 +568,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     bool failed = unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure, timedOut = false;
     bool negativeBeyond = false;  // a failed step beyond lam met negative curvature
     while (lam < 1.0 && !failed) {
-      if (hasDeadline && Clock::now() > deadline) {
+      if ((hasDeadline && Clock::now() > deadline) || (opt.cancel && opt.cancel->load())) {
         timedOut = true;
         break;
       }

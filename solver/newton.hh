@@ -36,6 +36,8 @@
 // Nothing here is tuned to a particular scene.
 #pragma once
 
+#include <atomic>
+
 #include <Eigen/Core>
 #include <limits>
 #include <string>
@@ -56,6 +58,9 @@ struct NewtonOptions {
   int maxLoadHalvings = 10;     // continuation: smallest load step is 2^-maxLoadHalvings
   int maxEscapes = 20;          // steps along negative curvature away from unstable equilibria
   double timeLimit = 0.0;       // s of wall-clock time for a whole solveEquilibrium; 0: none
+  // Set by another thread to stop a solve early (checked where the time
+  // limit is; the solve then ends as if its time limit had passed).
+  const std::atomic<bool>* cancel = nullptr;
   std::string isValid() const;  // empty if valid, else what is wrong
 };
 

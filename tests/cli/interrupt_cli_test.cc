@@ -65,12 +65,14 @@ class InterruptCliTest : public ::testing::Test {
 
   // Starts `rodmesh ARGS` in the working directory, stdout to /dev/null and
   // stderr to log_, with RODMESH_TEST_SLOW_WRITE=slowWrite when not empty.
-  pid_t start(const std::vector<std::string>& args, const std::string& slowWrite = "") const {
+  pid_t start(const std::vector<std::string>& args, const std::string& slowWrite = "",
+              const std::string& slowHessian = "") const {
     unlink(log_.c_str());  // waitForStderr must not see the previous run's output
     const pid_t pid = fork();
     if (pid == 0) {
       if (chdir(dir_.c_str()) != 0) _exit(126);
       if (!slowWrite.empty()) setenv("RODMESH_TEST_SLOW_WRITE", slowWrite.c_str(), 1);
+      if (!slowHessian.empty()) setenv("RODMESH_TEST_SLOW_HESSIAN", slowHessian.c_str(), 1);
       const int devNull = open("/dev/null", O_WRONLY);
       const int err = open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       dup2(devNull, 1);
@@ -289,6 +291,60 @@ TEST_F(InterruptCliTest, TheNextRunRemovesTemporaryFilesOfDeadWritersOnly) {
   EXPECT_EQ(files(), expected);
   EXPECT_NO_THROW(readArchive(dir_ + "/out.h5"));
 }
+
+#ifdef RODMESH_HAVE_NLP
+// The watchdog of `optimize` (apps/cmd_optimize.cc): a run stuck inside one
+// computation that cannot finish in time (RODMESH_TEST_SLOW_HESSIAN=60 makes
+// every Hessian evaluation after the first take a minute, as a MUMPS
+// factorization running away would) still answers --time-limit and the first
+// SIGINT or SIGTERM within 5 s, with an archive of the best design confirmed
+// so far that says why it stopped.
+class WatchdogCliTest : public InterruptCliTest {
+ protected:
+  using Clock = std::chrono::steady_clock;
+  static double seconds(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+  void expectWatchdogArchive(const std::string& why) {
+    EXPECT_EQ(files(), inputsAnd("out.h5"));
+    const Archive a = readArchive(dir_ + "/out.h5");
+    EXPECT_EQ(a.command, "optimize");
+    EXPECT_EQ(a.status, "not_converged");
+    ASSERT_TRUE(a.optimize.has_value());
+    EXPECT_NE(a.optimize->message.find(why), std::string::npos) << a.optimize->message;
+    EXPECT_NE(a.optimize->message.find("did not stop within"), std::string::npos) << a.optimize->message;
+    ASSERT_TRUE(a.history.has_value());
+    EXPECT_FALSE(a.history->iteration.empty());
+    ASSERT_EQ(a.poses.size(), 2u);
+    for (const ArchivePose& p : a.poses) {
+      EXPECT_EQ(p.status, "converged") << "the archived design was re-solved from rest";
+      EXPECT_EQ(p.initialPositions.rows(), p.positions.rows());
+    }
+  }
+};
+
+TEST_F(WatchdogCliTest, TimeLimitIsKeptWhileOneComputationRunsForAMinute) {
+  const auto t0 = Clock::now();
+  const pid_t pid = start({"optimize", "optimize_small.json", "-o", "out.h5", "--time-limit", "2"}, "", "60");
+  const int status = finish(pid);
+  const double took = seconds(t0);
+  EXPECT_EQ(status, 1) << clitest::readText(log_);
+  EXPECT_LT(took, 2.0 + 5.0) << "answered " << took - 2.0 << " s after the limit";
+  expectWatchdogArchive("time limit reached");
+}
+
+TEST_F(WatchdogCliTest, FirstSigintIsAnsweredWithin5sWhileOneComputationRunsForAMinute) {
+  const pid_t pid = start({"optimize", "optimize_small.json", "-o", "out.h5"}, "", "60");
+  // Iteration 1 is printed before its Hessian, the first slow one.
+  ASSERT_TRUE(waitForStderr("iter    1 ")) << clitest::readText(log_);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto t0 = Clock::now();
+  kill(pid, SIGINT);
+  const int status = finish(pid);
+  const double took = seconds(t0);
+  EXPECT_EQ(status, 1) << clitest::readText(log_);
+  EXPECT_LT(took, 5.0);
+  expectWatchdogArchive("interrupted (SIGINT)");
+}
+#endif
 
 }  // namespace
 }  // namespace rodmesh

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "model/design.hh"
+#include "model/design_space.hh"
 #include "model/scene.hh"
 #include "solver/newton.hh"
 
@@ -52,6 +53,7 @@ NewtonOptions fallbackCaseNewton();
 struct HiddenDesignProblem {
   Scene scene;
   double hiddenRadiusMin = 1e9, hiddenRadiusMax = 0;
+  ControlValues hidden;  // the hidden design's control values
 };
 HiddenDesignProblem hiddenDesignSheet(bool radii, bool rest, unsigned seed, int poses = 2);
 

@@ -69,6 +69,7 @@ HiddenDesignProblem hiddenDesignSheet(bool radii, bool rest, unsigned seed, int 
     pr.hiddenRadiusMax = std::max(pr.hiddenRadiusMax, r.maxCoeff());
   }
   pr.scene = s;
+  pr.hidden = hidden;
   return pr;
 }
 

@@ -1,0 +1,186 @@
+#include "solver/design_monitor.hh"
+
+#include <cmath>
+#include <exception>
+
+namespace rodmesh {
+
+double simulationObjective(const Scene& scene, const SimulationResult& sim, double* sumSquared) {
+  double f = 0.0, ss = 0.0;
+  for (std::size_t k = 0; k < sim.poses.size() && k < scene.poses.size(); ++k) {
+    const std::vector<Vec3>& target = scene.poses[k].target;
+    const std::vector<Vec3>& x = sim.poses[k].positions;
+    double s = 0.0;
+    for (std::size_t v = 0; v < x.size() && v < target.size(); ++v) s += (x[v] - target[v]).squaredNorm();
+    f += 0.5 * scene.poses[k].weight * s;
+    ss += s;
+  }
+  if (sumSquared) *sumSquared = ss;
+  return f;
+}
+
+DesignMonitor::DesignMonitor(const Scene& scene, const DesignSpace& space, const NewtonOptions& newton,
+                             std::vector<PoseState> warm, double initialObjective, Clock::time_point t0,
+                             std::function<void(const ConfirmedDesign&)> onConfirmed)
+    : scene_(scene),
+      space_(space),
+      newton_(newton),
+      warm_(std::move(warm)),
+      t0_(t0),
+      onConfirmed_(std::move(onConfirmed)),
+      bestObjective_(initialObjective) {
+  newton_.cancel = &cancel_;
+  thread_ = std::thread([this] { run(); });
+}
+
+DesignMonitor::~DesignMonitor() { stop(); }
+
+void DesignMonitor::offer(const ControlValues& controls, int iteration, const std::string& label) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return;
+    pending_ = Offer{controls, iteration, label};
+  }
+  wake_.notify_one();
+}
+
+void DesignMonitor::drain() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  idle_.wait(lock, [this] { return stopping_ || (!pending_ && !busy_); });
+}
+
+void DesignMonitor::stop() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+    pending_.reset();
+  }
+  cancel_.store(true);
+  wake_.notify_all();
+  idle_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+std::optional<ConfirmedDesign> DesignMonitor::best() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return best_;
+}
+
+bool DesignMonitor::bestSummary(double& rms, int& iteration) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!best_) return false;
+  rms = best_->rms;
+  iteration = best_->iteration;
+  return true;
+}
+
+void DesignMonitor::run() {
+  // The monitor's own model: PoseSystems keep solver workspaces, so the
+  // optimizer's model cannot be shared with another thread.
+  std::unique_ptr<SceneModel> model;
+  try {
+    model = std::make_unique<SceneModel>(scene_);
+  } catch (const std::exception&) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+    idle_.notify_all();
+    return;
+  }
+  try {
+    // The initial design from rest: the design a run holds before any other
+    // is confirmed.
+    const Design d0 = space_.toDesign(space_.initialControls(scene_));
+    SimulationResult sim = simulateAll(*model, d0, newton_);
+    if (sim.allConverged && !cancel_.load()) {
+      ConfirmedDesign c;
+      c.controls = space_.initialControls(scene_);
+      c.design = d0;
+      double ss = 0.0;
+      c.objective = simulationObjective(scene_, sim, &ss);
+      const double n = static_cast<double>(scene_.poses.size() * scene_.vertices.size());
+      c.rms = n > 0 ? std::sqrt(ss / n) : 0.0;
+      c.simulation = std::move(sim);
+      c.states = warm_;
+      c.label = "the initial design";
+      c.initial = true;
+      c.elapsed = std::chrono::duration<double>(Clock::now() - t0_).count();
+      if (onConfirmed_) onConfirmed_(c);
+    }
+  } catch (const std::exception&) {
+  }
+  for (;;) {
+    Offer offer;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [this] { return stopping_ || pending_.has_value(); });
+      if (stopping_) break;
+      offer = std::move(*pending_);
+      pending_.reset();
+      busy_ = true;
+    }
+    try {
+      check(offer, *model);
+    } catch (const std::exception&) {
+      // A design the model rejects is one that is not confirmed.
+    }
+    checked_.fetch_add(1);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      busy_ = false;
+    }
+    idle_.notify_all();
+  }
+  idle_.notify_all();
+}
+
+void DesignMonitor::check(const Offer& offer, SceneModel& model) {
+  if (!offer.controls.radii.allFinite() || !offer.controls.displacement.allFinite()) return;
+  const Design d = space_.toDesign(offer.controls);
+  const int K = model.numPoses();
+  double threshold;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    threshold = bestObjective_;
+  }
+  // 1. Warm started from the last confirmed equilibria: a cheap test that
+  //    the design has equilibria near the optimizer's branch and is better.
+  std::vector<PoseState> states = warm_;
+  if (static_cast<int>(states.size()) != K) return;
+  SimulationResult warmSim;
+  for (int k = 0; k < K; ++k) {
+    const NewtonReport r = solveEquilibrium(model.pose(k), d, states[k], newton_);
+    if (cancel_.load() || !r.converged || states[k].loadFactor != 1.0) return;
+    PoseResult pr;
+    pr.positions = model.pose(k).positions(states[k].u, d);
+    warmSim.poses.push_back(std::move(pr));
+  }
+  warm_ = states;  // converged: the next check starts here
+  if (!(simulationObjective(scene_, warmSim) < threshold)) return;
+  // 2. From rest, as `rodmesh simulate` and the archive solve it.
+  SimulationResult sim = simulateAll(model, d, newton_);
+  if (cancel_.load() || !sim.allConverged) return;
+  double ss = 0.0;
+  const double f = simulationObjective(scene_, sim, &ss);
+  if (!(f < threshold)) return;
+  ConfirmedDesign c;
+  c.controls = offer.controls;
+  c.design = d;
+  c.simulation = std::move(sim);
+  c.states = std::move(states);
+  c.objective = f;
+  const double n = static_cast<double>(scene_.poses.size() * scene_.vertices.size());
+  c.rms = n > 0 ? std::sqrt(ss / n) : 0.0;
+  c.iteration = offer.iteration;
+  c.label = offer.label;
+  c.elapsed = std::chrono::duration<double>(Clock::now() - t0_).count();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!(f < bestObjective_)) return;
+    bestObjective_ = f;
+    best_ = c;
+  }
+  confirmed_.fetch_add(1);
+  if (onConfirmed_) onConfirmed_(c);
+}
+
+}  // namespace rodmesh

@@ -1,0 +1,109 @@
+// A usable design at every moment of an optimization (docs/optimization.md,
+// "Confirmed designs"). SAND's iterates are not equilibria, and even the
+// reduced method's iterates are equilibria only on the optimizer's own branch
+// (warm starts); the archive wants designs whose poses re-solve from rest
+// (solver/design_fallback.hh). The monitor takes the optimizer's current
+// design whenever the optimizer offers one, re-solves it on a background
+// thread with a model of its own (so it runs on the second core while the
+// optimizer goes on), and keeps the best design whose every pose
+//   1. converges by Newton warm-started from the last confirmed equilibria
+//      (cheap, and it rejects designs worse than the best so far), then
+//   2. converges from the rest state, as `rodmesh simulate` solves it,
+// with a lower objective than every design confirmed before (the first must
+// beat the initial design). Offers arriving while a design is being checked
+// replace each other: the newest is checked next, older ones are dropped.
+#pragma once
+
+#include "model/design_space.hh"
+#include "solver/equilibrium.hh"
+#include "solver/newton.hh"
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <limits>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace rodmesh {
+
+// A design whose poses were re-solved from rest.
+struct ConfirmedDesign {
+  ControlValues controls;
+  Design design;
+  SimulationResult simulation;    // every pose from rest (rodmesh simulate's solve), all converged
+  std::vector<PoseState> states;  // the warm-started equilibria (the optimizer's branch)
+  double objective = std::numeric_limits<double>::infinity();  // f (contract §4) on `simulation`
+  double rms = 0.0;                                             // m, on `simulation`
+  int iteration = 0;                                            // the optimizer iteration that offered it
+  std::string label;                                            // e.g. "the design of joint level 2, iteration 37"
+  double elapsed = 0.0;                                         // s from the run's start when confirmed
+  bool initial = false;                                         // the initial design (see DesignMonitor)
+};
+
+// f (contract §4: 1/2 sum_k w_k sum_v |q_kv - target_kv|^2) and the summed
+// squared distance of a simulation's positions.
+double simulationObjective(const Scene& scene, const SimulationResult& sim, double* sumSquared = nullptr);
+
+class DesignMonitor {
+ public:
+  using Clock = std::chrono::steady_clock;
+  // `warm`: equilibria of the initial design (the first warm start);
+  // `initialObjective`: the initial design's f, which a confirmed design must
+  // beat; `t0`: the run's start; `onConfirmed` (optional) is called on the
+  // monitor's thread, first with the initial design re-solved from rest
+  // (`initial` set; what a run stopped before any better design archives),
+  // then with every new best design.
+  DesignMonitor(const Scene& scene, const DesignSpace& space, const NewtonOptions& newton,
+                std::vector<PoseState> warm, double initialObjective, Clock::time_point t0,
+                std::function<void(const ConfirmedDesign&)> onConfirmed = {});
+  ~DesignMonitor();
+  DesignMonitor(const DesignMonitor&) = delete;
+  DesignMonitor& operator=(const DesignMonitor&) = delete;
+
+  // Offers the optimizer's current design; returns at once.
+  void offer(const ControlValues& controls, int iteration, const std::string& label);
+  // Waits until every offer made so far has been checked (tests, and the end
+  // of a run that wants its last design confirmed).
+  void drain();
+  // Stops the thread, abandoning a check under way (Newton is cancelled).
+  void stop();
+
+  std::optional<ConfirmedDesign> best() const;
+  // The best design's RMS (m) and iteration, without copying it; false if none.
+  bool bestSummary(double& rms, int& iteration) const;
+  int checked() const { return checked_.load(); }      // designs re-solved (completed checks)
+  int confirmed() const { return confirmed_.load(); }  // new bests
+
+ private:
+  struct Offer {
+    ControlValues controls;
+    int iteration = 0;
+    std::string label;
+  };
+  void run();
+  void check(const Offer& offer, SceneModel& model);
+
+  const Scene& scene_;
+  const DesignSpace& space_;
+  NewtonOptions newton_;
+  std::vector<PoseState> warm_;  // the monitor thread's own
+  Clock::time_point t0_;
+  std::function<void(const ConfirmedDesign&)> onConfirmed_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable wake_, idle_;
+  std::optional<Offer> pending_;
+  bool busy_ = false, stopping_ = false;
+  std::atomic<bool> cancel_{false};
+  std::optional<ConfirmedDesign> best_;
+  double bestObjective_;  // the initial design's objective until a design is confirmed
+  std::atomic<int> checked_{0}, confirmed_{0};
+  std::thread thread_;
+};
+
+}  // namespace rodmesh

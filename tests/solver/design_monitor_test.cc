@@ -1,0 +1,177 @@
+// The stall rule (StallDetector) and the design monitor (solver/design_monitor.hh):
+// a design is confirmed only when it re-solves from rest better than every
+// design before it, on a thread of its own, and what it archives is what
+// `rodmesh simulate` computes for that design.
+#include "model/design_space.hh"
+#include "solver/design_monitor.hh"
+#include "solver/design_optimizer.hh"
+#include "tests/testutil/design_problems.hh"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace rodmesh {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+TEST(StallDetector, StallsWhenTheBestSettledObjectiveStopsFalling) {
+  StallDetector s(5, 1e-3);
+  s.add(1.0, true);
+  for (int i = 0; i < 4; ++i) {
+    s.add(1.0 - 1e-5 * (i + 1), true);  // 5e-5 over the window: less than 1e-3
+    EXPECT_FALSE(s.stalled()) << "a window needs 5 iterates after its start, " << i + 1 << " so far";
+  }
+  s.add(1.0 - 5e-5, true);
+  EXPECT_TRUE(s.stalled());
+  EXPECT_NEAR(s.best(), 1.0 - 5e-5, 1e-15);
+  s.add(0.99, true);  // 1 % below the window's start: progress again
+  EXPECT_FALSE(s.stalled());
+}
+
+TEST(StallDetector, SteadyProgressIsNotAStall) {
+  StallDetector s(5, 1e-3);
+  double f = 1.0;
+  for (int i = 0; i < 30; ++i) {
+    s.add(f, true);
+    EXPECT_FALSE(s.stalled()) << "iteration " << i;
+    f *= 0.99;  // 5 % over a window
+  }
+}
+
+TEST(StallDetector, AnExcursionAwayFromEquilibriumIsNotAStall) {
+  // The optimizer leaves the constraints for a while (iterates not near
+  // equilibrium, not settled): no decision until it is back for a whole window.
+  StallDetector s(5, 1e-3);
+  s.add(1.0, true);
+  for (int i = 0; i < 10; ++i) {
+    s.add(kInf, false);
+    EXPECT_FALSE(s.stalled());
+  }
+  for (int i = 0; i < 4; ++i) {
+    s.add(1.0, true);
+    EXPECT_FALSE(s.stalled()) << "the window still holds iterates of the excursion";
+  }
+  s.add(1.0, true);
+  EXPECT_TRUE(s.stalled());
+}
+
+TEST(StallDetector, IteratesNearButNotSettledCountForTheWindowButNotTheBest) {
+  StallDetector s(3, 1e-3);
+  s.add(1.0, true);
+  s.add(kInf, true);
+  s.add(kInf, true);
+  s.add(kInf, true);
+  EXPECT_TRUE(s.stalled()) << "near equilibrium throughout, no settled improvement";
+  EXPECT_EQ(s.best(), 1.0);
+}
+
+class DesignMonitorTest : public testing::Test {
+ protected:
+  void SetUp() override {
+    problem_ = testutil::hiddenDesignSheet(true, true, 5, 2);
+    model_ = std::make_unique<SceneModel>(problem_.scene);
+    space_ = std::make_unique<DesignSpace>(problem_.scene, model_->effects());
+    initial_ = space_->initialControls(problem_.scene);
+    const Design d0 = space_->toDesign(initial_);
+    const SimulationResult sim = simulateAll(*model_, d0, NewtonOptions{});
+    ASSERT_TRUE(sim.allConverged);
+    initialObjective_ = simulationObjective(problem_.scene, sim);
+    ASSERT_GT(initialObjective_, 0.0);
+    for (int k = 0; k < model_->numPoses(); ++k) {
+      PoseState s = model_->pose(k).restState(d0);
+      ASSERT_TRUE(solveEquilibrium(model_->pose(k), d0, s, NewtonOptions{}).converged);
+      warm_.push_back(s);
+    }
+  }
+  // A design between the initial one and the hidden one: t = 0 initial, 1 hidden.
+  ControlValues between(double t) const {
+    const ControlValues& hidden = problem_.hidden;
+    ControlValues c = initial_;
+    c.radii = (1 - t) * initial_.radii + t * hidden.radii;
+    c.displacement = (1 - t) * initial_.displacement + t * hidden.displacement;
+    return c;
+  }
+
+  testutil::HiddenDesignProblem problem_;
+  std::unique_ptr<SceneModel> model_;
+  std::unique_ptr<DesignSpace> space_;
+  ControlValues initial_;
+  double initialObjective_ = 0.0;
+  std::vector<PoseState> warm_;
+};
+
+TEST_F(DesignMonitorTest, ConfirmsOnlyDesignsThatReSolveFromRestBetterThanAllBefore) {
+  std::vector<ConfirmedDesign> reported;
+  std::mutex m;
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+                        DesignMonitor::Clock::now(), [&](const ConfirmedDesign& c) {
+                          std::lock_guard<std::mutex> lock(m);
+                          reported.push_back(c);
+                        });
+  // The initial design is no improvement: reported once as the initial one.
+  monitor.offer(initial_, 1, "initial again");
+  monitor.drain();
+  EXPECT_FALSE(monitor.best().has_value());
+  // Half way to the hidden design: better.
+  monitor.offer(between(0.5), 2, "half way");
+  monitor.drain();
+  ASSERT_TRUE(monitor.best().has_value());
+  EXPECT_EQ(monitor.best()->iteration, 2);
+  const double halfWay = monitor.best()->objective;
+  EXPECT_LT(halfWay, initialObjective_);
+  // A quarter of the way: worse than half way, not confirmed.
+  monitor.offer(between(0.25), 3, "a quarter");
+  monitor.drain();
+  EXPECT_EQ(monitor.best()->iteration, 2);
+  // The hidden design: the targets, to the solver's tolerance.
+  monitor.offer(between(1.0), 4, "hidden");
+  monitor.drain();
+  ASSERT_TRUE(monitor.best().has_value());
+  const ConfirmedDesign best = *monitor.best();
+  EXPECT_EQ(best.iteration, 4);
+  EXPECT_EQ(best.label, "hidden");
+  EXPECT_LT(best.rms, 1e-3 * std::sqrt(2 * initialObjective_ / (2.0 * problem_.scene.vertices.size())));
+  EXPECT_EQ(monitor.confirmed(), 2);
+  EXPECT_EQ(monitor.checked(), 4);
+  monitor.stop();
+  // What it holds is what a solve from rest gives for that design (rodmesh
+  // simulate), with its RMS and objective.
+  const SimulationResult sim = simulateAll(*model_, best.design, NewtonOptions{});
+  ASSERT_TRUE(sim.allConverged);
+  for (std::size_t k = 0; k < sim.poses.size(); ++k)
+    for (std::size_t v = 0; v < sim.poses[k].positions.size(); ++v)
+      EXPECT_LT((sim.poses[k].positions[v] - best.simulation.poses[k].positions[v]).norm(), 1e-9);
+  EXPECT_NEAR(best.rms, rmsError(sim), 1e-12);
+  EXPECT_NEAR(best.objective, simulationObjective(problem_.scene, sim), 1e-15 + 1e-9 * best.objective);
+  // Reported: the initial design first, then each new best.
+  std::lock_guard<std::mutex> lock(m);
+  ASSERT_EQ(reported.size(), 3u);
+  EXPECT_TRUE(reported[0].initial);
+  EXPECT_NEAR(reported[0].objective, initialObjective_, 1e-9 * initialObjective_);
+  EXPECT_EQ(reported[1].iteration, 2);
+  EXPECT_EQ(reported[2].iteration, 4);
+}
+
+TEST_F(DesignMonitorTest, NonFiniteDesignsAreRejectedAndStopReturnsPromptly) {
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+                        DesignMonitor::Clock::now());
+  ControlValues bad = initial_;
+  bad.radii(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  monitor.offer(bad, 1, "nan");
+  monitor.drain();
+  EXPECT_FALSE(monitor.best().has_value());
+  EXPECT_EQ(monitor.checked(), 1);
+  monitor.offer(between(1.0), 2, "hidden");
+  const auto t0 = std::chrono::steady_clock::now();
+  monitor.stop();  // abandons the check under way (Newton cancelled)
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+  monitor.offer(between(1.0), 3, "after stop");  // ignored
+  EXPECT_LE(monitor.checked(), 2);
+}
+
+}  // namespace
+}  // namespace rodmesh
