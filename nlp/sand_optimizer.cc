@@ -41,12 +41,12 @@ enum class StopReason { None, TimeLimit, Interrupted, NearlyConverged, Diverging
 
 // A phase is diverging when kDivergedIterates iterates in a row are off
 // equilibrium by more than kDivergedLoads times the largest pose load (N), or
-// an iterate's dual infeasibility exceeds kDivergedDualInfeasibility. Runs
-// that recover stay below 25 loads (the paper's Sheet: 72 N off at 3 N
-// pulls) or leave it for single iterations (a cantilever bent far by 2 mN:
-// one iterate 1500 loads off); a rest-shape phase whose linearised first step
-// moved a sheet out of plane by about an edge length stayed 800-1600 loads
-// off, and every factorization took longer (benchmarks/defaults, small_rest).
+// an iterate's dual infeasibility exceeds kDivergedDualInfeasibility. Far
+// from equilibrium the linearised constraints are poor (a step that moves
+// part of a sheet out of plane by an edge length changes edge lengths at
+// second order), the iterates rarely come back and the KKT factorizations
+// grow slower; runs that do recover leave it for single iterations only
+// (docs/optimization.md, "SAND phases that diverge", has the measurements).
 constexpr double kDivergedLoads = 100.0;
 constexpr int kDivergedIterates = 3;
 constexpr double kDivergedDualInfeasibility = 1e10;
@@ -438,14 +438,16 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   double warmObjectiveScale = 1.0;            // and its objective scale f_s
   DesignFallbacks fallbacks;                  // the kept phase designs (solver/design_fallback.hh)
 
-  bool retrying = false;  // the phase is run again after diverging
+  // Attempts of the current phase after a divergence: the retry holds the
+  // iterates near equilibrium (theta_max_fact) and turns Ipopt's watchdog
+  // off, which would accept a full step after repeated short ones and so
+  // leave equilibrium again.
+  int retry = 0;
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignPhase& phase = steps[ph].phase;
-    if (!userSet.count("theta_max_fact")) o.SetNumericValue("theta_max_fact", retrying ? kRetryThetaMaxFact : 1e4);
-    // Ipopt's watchdog accepts a full step after repeated short ones, which
-    // is how a held-near-equilibrium retry left it again (by 3e3 loads).
+    if (!userSet.count("theta_max_fact")) o.SetNumericValue("theta_max_fact", retry > 0 ? kRetryThetaMaxFact : 1e4);
     if (!userSet.count("watchdog_shortened_iter_trigger"))
-      o.SetIntegerValue("watchdog_shortened_iter_trigger", retrying ? 0 : 10);
+      o.SetIntegerValue("watchdog_shortened_iter_trigger", retry > 0 ? 0 : 10);
     const int round = steps[ph].round;
     if (round > 0 && phase.restShape) roundStart = res.objective;
     const int remaining = opt.maxIterations - iterations;
@@ -651,9 +653,9 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       // Far from equilibrium Ipopt's linearisations are poor and its
       // iterates rarely come back (each factorization slower than the last):
       // run the phase again from the design kept so far, with the iterates
-      // held near equilibrium. A second divergence ends the phase.
-      if (!retrying) {
-        retrying = true;
+      // held near equilibrium (see `retry`). A second divergence ends the run.
+      if (retry < 1) {
+        ++retry;
         --ph;
         continue;
       }
@@ -663,7 +665,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
                 ", also when held near equilibrium; the best design so far is the result";
       break;
     }
-    retrying = false;
+    retry = 0;
     if (tnlp->stopReason() != StopReason::None && !nearlySolved) {
       stop = tnlp->stopReason() == StopReason::Interrupted ? Outcome::Interrupted : Outcome::TimeLimit;
       message = stop == Outcome::Interrupted ? "interrupted" : "time limit reached";
