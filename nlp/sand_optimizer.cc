@@ -387,12 +387,16 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   o.SetStringValue("sb", "yes");
   o.SetIntegerValue("print_level", 0);
   o.SetStringValue("linear_solver", "mumps");
-  // METIS's nested dissection for the KKT systems: MUMPS's automatic
-  // choice cost 1.3x the CPU time over the first 30 iterations of the
-  // four-pose hat (docs/optimization.md). SCOTCH was 6% faster still, but
-  // its orderings differ between calls in one process, so results would
-  // depend on what ran before.
-  o.SetIntegerValue("mumps_pivot_order", 5);
+  // AMD ordering for the KKT systems. Debian's MUMPS is built without
+  // METIS (5 falls back to MUMPS's automatic choice, SCOTCH on larger
+  // systems), and SCOTCH's orderings differ between calls in one process,
+  // so results would depend on what ran before; AMD is deterministic and
+  // the cheapest per factorization on the sheets and the hat measured
+  // (docs/optimization.md).
+  o.SetIntegerValue("mumps_pivot_order", 0);
+  // MUMPS's workspace at twice its estimate instead of Ipopt's 1000 %: the
+  // larger workspace is mapped and zero-filled again at every factorization.
+  o.SetIntegerValue("mumps_mem_percent", 100);
   o.SetStringValue("hessian_approximation", "exact");
   o.SetStringValue("mu_strategy", "adaptive");  // not monotone: docs/optimization.md
   o.SetNumericValue("tol", opt.tolerance);
