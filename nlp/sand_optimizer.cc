@@ -517,7 +517,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     // Progress of the settled iterates (within 1e-5 of the load of
     // equilibrium: Newton's polish makes them equilibria); the phase starts
     // at an equilibrium.
-    StallDetector stall(opt.stallWindow, opt.stallRelativeDecrease);
+    StallDetector stall(opt.stallWindow, opt.stallRelativeDecrease, res.initialObjective);
     stall.add(res.objective, true);
     SandTnlp::Hooks hooks;
     hooks.progress = [&](int iter, const double* x, double infDu, double alphaPr) {
@@ -700,18 +700,19 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     }
     if (stalled && ph + 1 == steps.size()) {
       std::ostringstream m;
-      m << "no meaningful progress: the objective fell by less than " << opt.stallRelativeDecrease * 100.0
-        << "% over the last " << opt.stallWindow << " iterations near equilibrium";
+      m << "no meaningful progress: over the last " << opt.stallWindow
+        << " iterations near equilibrium the objective fell by less than " << opt.stallRelativeDecrease * 100.0
+        << "%, or the RMS by less than " << kMeaningfulRms * 100.0 << "% of the initial design's";
       message = m.str();
     }
     // The rounds end when one (rest shape, then radii) lowers the objective
     // by less than roundRelativeDecrease.
     if (round > 0 && phase.radii) {
       const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
-      if (gain < opt.roundRelativeDecrease) {
+      if (gain < opt.roundRelativeDecrease || !meaningfulGain(roundStart, res.objective, res.initialObjective)) {
         std::ostringstream m;
         m << "a rest-shape/radii round lowered the objective by less than " << opt.roundRelativeDecrease * 100.0
-          << "%";
+          << "%, or the RMS by less than " << kMeaningfulRms * 100.0 << "% of the initial design's";
         message = m.str();
         break;
       }

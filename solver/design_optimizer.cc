@@ -340,7 +340,12 @@ bool StallDetector::stalled() const {
   if (!std::isfinite(before)) return false;
   for (int i = n - window_; i < n; ++i)
     if (!near_[i]) return false;
-  return now > (1.0 - relative_) * before;
+  return now > (1.0 - relative_) * before || (initial_ > 0 && !meaningfulGain(before, now, initial_));
+}
+
+bool meaningfulGain(double before, double after, double initial) {
+  return std::sqrt(std::max(before, 0.0)) - std::sqrt(std::max(after, 0.0)) >=
+         kMeaningfulRms * std::sqrt(std::max(initial, 0.0));
 }
 
 bool adoptConfirmed(const DesignMonitor& monitor, Outcome outcome, DesignOptimizerResult& res,
@@ -528,13 +533,16 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       break;
     }
     // A round (rest shape, then radii) ends the run when it lowered the
-    // objective by less than roundRelativeDecrease.
+    // objective by less than roundRelativeDecrease, or the RMS by less than
+    // kMeaningfulRms of the initial design's.
     if (round > 0 && phase.radii) {
       const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
-      if (gain < opt.roundRelativeDecrease) {
-        char buf[160];
-        std::snprintf(buf, sizeof buf, "rest-shape/radii round %d lowered the objective by %.2g%% (< %.2g%%)", round,
-                      100 * gain, 100 * opt.roundRelativeDecrease);
+      if (gain < opt.roundRelativeDecrease || !meaningfulGain(roundStart, res.objective, res.initialObjective)) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf,
+                      "rest-shape/radii round %d lowered the objective by %.2g%% (less than %.2g%%, or the RMS by less "
+                      "than %.2g%% of the initial design's)",
+                      round, 100 * gain, 100 * opt.roundRelativeDecrease, 100 * kMeaningfulRms);
         stop = Outcome::Converged;
         message = buf;
         break;

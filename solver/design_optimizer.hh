@@ -184,9 +184,13 @@ using DesignProgress = std::function<void(const DesignIterate&)>;
 // `relativeDecrease` of its value, and every iterate of the window was near
 // equilibrium (an optimizer on an excursion away from the constraints, to
 // come back lower, is not stalled).
+//
+// Also stalled when the window lowered the RMS by less than kMeaningfulRms of
+// the initial design's RMS (`initialObjective` > 0; RMS ~ sqrt(f)).
 class StallDetector {
  public:
-  StallDetector(int window, double relativeDecrease) : window_(window), relative_(relativeDecrease) {}
+  StallDetector(int window, double relativeDecrease, double initialObjective = 0.0)
+      : window_(window), relative_(relativeDecrease), initial_(initialObjective) {}
   // One iterate: its objective if it is settled (+inf otherwise), and
   // whether it is near equilibrium.
   void add(double settledObjective, bool nearEquilibrium);
@@ -195,7 +199,7 @@ class StallDetector {
 
  private:
   int window_;
-  double relative_;
+  double relative_, initial_;
   std::vector<double> best_;        // running minimum of the settled objective, per iterate
   std::vector<char> near_;          // near equilibrium, per iterate
 };
@@ -203,6 +207,12 @@ class StallDetector {
 // Targets met to round-off: the objective at most this fraction of the
 // initial design's (RMS at most 1e-6 of the initial RMS), at an equilibrium.
 constexpr double kTargetsMetRatio = 1e-12;
+// A gain in RMS smaller than this fraction of the initial design's RMS is not
+// meaningful to a designer (0.01 %: 2 micrometres on a 20 mm initial error).
+constexpr double kMeaningfulRms = 1e-4;
+// Whether going from objective `before` to `after` lowered the RMS by at least
+// kMeaningfulRms of the initial design's RMS (objective `initial`).
+bool meaningfulGain(double before, double after, double initial);
 
 // At the end of a run (the monitor stopped): the monitor's best design joins
 // the fallbacks and, when `outcome` is not Converged and its objective from
