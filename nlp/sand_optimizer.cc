@@ -437,6 +437,7 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   std::string message = "schedule completed";
   int iterations = 0;
   double roundStart = res.objective;
+  int roundStartIteration = 0;
   std::vector<PoseState> rawStates = states;  // Ipopt's own equilibria of the kept design
   std::vector<double> warmLambda;             // the kept phase's constraint multipliers
   double warmObjectiveScale = 1.0;            // and its objective scale f_s
@@ -453,7 +454,10 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     if (!userSet.count("watchdog_shortened_iter_trigger"))
       o.SetIntegerValue("watchdog_shortened_iter_trigger", retry > 0 ? 0 : 10);
     const int round = steps[ph].round;
-    if (round > 0 && phase.restShape) roundStart = res.objective;
+    if (round > 0 && phase.restShape) {
+      roundStart = res.objective;
+      roundStartIteration = iterations;
+    }
     const int remaining = opt.maxIterations - iterations;
     if (remaining <= 0) {
       stop = Outcome::MaxIterations;
@@ -702,17 +706,20 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       std::ostringstream m;
       m << "no meaningful progress: over the last " << opt.stallWindow
         << " iterations near equilibrium the objective fell by less than " << opt.stallRelativeDecrease * 100.0
-        << "%, or the RMS by less than " << kMeaningfulRms * 100.0 << "% of the initial design's";
+        << "%, or the RMS by less than " << kMeaningfulRmsPerIteration * opt.stallWindow * 100.0
+        << "% of the initial design's";
       message = m.str();
     }
     // The rounds end when one (rest shape, then radii) lowers the objective
     // by less than roundRelativeDecrease.
     if (round > 0 && phase.radii) {
       const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
-      if (gain < opt.roundRelativeDecrease || !meaningfulGain(roundStart, res.objective, res.initialObjective)) {
+      if (gain < opt.roundRelativeDecrease ||
+          !meaningfulGain(roundStart, res.objective, res.initialObjective, iterations - roundStartIteration)) {
         std::ostringstream m;
         m << "a rest-shape/radii round lowered the objective by less than " << opt.roundRelativeDecrease * 100.0
-          << "%, or the RMS by less than " << kMeaningfulRms * 100.0 << "% of the initial design's";
+          << "%, or the RMS by less than " << kMeaningfulRmsPerIteration * 100.0
+          << "% of the initial design's per iteration";
         message = m.str();
         break;
       }

@@ -340,12 +340,12 @@ bool StallDetector::stalled() const {
   if (!std::isfinite(before)) return false;
   for (int i = n - window_; i < n; ++i)
     if (!near_[i]) return false;
-  return now > (1.0 - relative_) * before || (initial_ > 0 && !meaningfulGain(before, now, initial_));
+  return now > (1.0 - relative_) * before || (initial_ > 0 && !meaningfulGain(before, now, initial_, window_));
 }
 
-bool meaningfulGain(double before, double after, double initial) {
+bool meaningfulGain(double before, double after, double initial, int iterations) {
   return std::sqrt(std::max(before, 0.0)) - std::sqrt(std::max(after, 0.0)) >=
-         kMeaningfulRms * std::sqrt(std::max(initial, 0.0));
+         kMeaningfulRmsPerIteration * std::max(iterations, 1) * std::sqrt(std::max(initial, 0.0));
 }
 
 bool adoptConfirmed(const DesignMonitor& monitor, Outcome outcome, DesignOptimizerResult& res,
@@ -420,6 +420,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   std::string message = "schedule completed";
   int iterations = 0;
   double roundStart = res.objective;  // objective at the start of the current round
+  int roundStartIteration = 0;
   DesignFallbacks fallbacks;          // accepted iterates and phase ends (solver/design_fallback.hh)
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignPhase& phase = steps[ph].phase;
@@ -437,7 +438,10 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       message = "time limit reached";
       break;
     }
-    if (round > 0 && phase.restShape) roundStart = res.objective;
+    if (round > 0 && phase.restShape) {
+      roundStart = res.objective;
+      roundStartIteration = iterations;
+    }
     ReducedObjective ro(model, space, objective, phase, res.controls, opt.newton, opt.threads, states);
     const Eigen::VectorXd s = designVariableScale(space, phase, scene);
     if (opt.designDerivatives != DesignDerivatives::Exact) ro.setDesignDerivatives(opt.designDerivatives, s);
@@ -537,12 +541,13 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     // kMeaningfulRms of the initial design's.
     if (round > 0 && phase.radii) {
       const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
-      if (gain < opt.roundRelativeDecrease || !meaningfulGain(roundStart, res.objective, res.initialObjective)) {
-        char buf[200];
+      if (gain < opt.roundRelativeDecrease ||
+          !meaningfulGain(roundStart, res.objective, res.initialObjective, iterations - roundStartIteration)) {
+        char buf[240];
         std::snprintf(buf, sizeof buf,
                       "rest-shape/radii round %d lowered the objective by %.2g%% (less than %.2g%%, or the RMS by less "
-                      "than %.2g%% of the initial design's)",
-                      round, 100 * gain, 100 * opt.roundRelativeDecrease, 100 * kMeaningfulRms);
+                      "than %.2g%% of the initial design's per iteration)",
+                      round, 100 * gain, 100 * opt.roundRelativeDecrease, 100 * kMeaningfulRmsPerIteration);
         stop = Outcome::Converged;
         message = buf;
         break;

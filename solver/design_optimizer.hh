@@ -185,8 +185,9 @@ using DesignProgress = std::function<void(const DesignIterate&)>;
 // equilibrium (an optimizer on an excursion away from the constraints, to
 // come back lower, is not stalled).
 //
-// Also stalled when the window lowered the RMS by less than kMeaningfulRms of
-// the initial design's RMS (`initialObjective` > 0; RMS ~ sqrt(f)).
+// Also stalled when the window lowered the RMS by less than
+// kMeaningfulRmsPerIteration x window of the initial design's RMS
+// (`initialObjective` > 0; RMS ~ sqrt(f)).
 class StallDetector {
  public:
   StallDetector(int window, double relativeDecrease, double initialObjective = 0.0)
@@ -207,12 +208,14 @@ class StallDetector {
 // Targets met to round-off: the objective at most this fraction of the
 // initial design's (RMS at most 1e-6 of the initial RMS), at an equilibrium.
 constexpr double kTargetsMetRatio = 1e-12;
-// A gain in RMS smaller than this fraction of the initial design's RMS is not
-// meaningful to a designer (0.01 %: 2 micrometres on a 20 mm initial error).
-constexpr double kMeaningfulRms = 1e-4;
-// Whether going from objective `before` to `after` lowered the RMS by at least
-// kMeaningfulRms of the initial design's RMS (objective `initial`).
-bool meaningfulGain(double before, double after, double initial);
+// Progress in RMS slower than this fraction of the initial design's RMS per
+// iteration is not meaningful to a designer: 1e-4 of it over 20 iterations
+// (2 micrometres on a 20 mm initial error), 1e-3 over a 200-iteration round.
+constexpr double kMeaningfulRmsPerIteration = 5e-6;
+// Whether going from objective `before` to `after` in `iterations`
+// iterations lowered the RMS by at least kMeaningfulRmsPerIteration x
+// iterations of the initial design's RMS (objective `initial`).
+bool meaningfulGain(double before, double after, double initial, int iterations);
 
 // At the end of a run (the monitor stopped): the monitor's best design joins
 // the fallbacks and, when `outcome` is not Converged and its objective from

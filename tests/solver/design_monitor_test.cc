@@ -69,24 +69,30 @@ TEST(StallDetector, IteratesNearButNotSettledCountForTheWindowButNotTheBest) {
   EXPECT_EQ(s.best(), 1.0);
 }
 
-TEST(StallDetector, AGainBelowATenThousandthOfTheInitialRmsIsNotMeaningful) {
+TEST(StallDetector, ProgressSlowerThanTheMeaningfulRateIsAStall) {
   // Relative test off (0): only the gain against the initial design counts.
-  // Initial objective 1 (RMS ~ 1); at RMS 0.1 the window gains 5e-5 in RMS.
+  // Initial objective 1 (RMS ~ 1): over a window of 3 iterations a gain of
+  // 3 x kMeaningfulRmsPerIteration = 1.5e-5 in RMS is meaningful.
+  ASSERT_DOUBLE_EQ(kMeaningfulRmsPerIteration, 5e-6);
   StallDetector s(3, 0.0, 1.0);
-  s.add(0.01, true);
-  s.add(std::pow(0.1 - 2e-5, 2), true);
-  s.add(std::pow(0.1 - 4e-5, 2), true);
-  s.add(std::pow(0.1 - 5e-5, 2), true);
+  s.add(0.01, true);  // RMS 0.1
+  s.add(std::pow(0.1 - 4e-6, 2), true);
+  s.add(std::pow(0.1 - 8e-6, 2), true);
+  s.add(std::pow(0.1 - 1e-5, 2), true);
   EXPECT_TRUE(s.stalled());
-  // The same relative progress with 1e-3 of the initial RMS gained is meaningful.
   StallDetector t(3, 0.0, 1.0);
   t.add(0.01, true);
-  t.add(std::pow(0.1 - 4e-4, 2), true);
-  t.add(std::pow(0.1 - 8e-4, 2), true);
-  t.add(std::pow(0.1 - 1e-3, 2), true);
+  t.add(std::pow(0.1 - 1e-5, 2), true);
+  t.add(std::pow(0.1 - 2e-5, 2), true);
+  t.add(std::pow(0.1 - 3e-5, 2), true);
   EXPECT_FALSE(t.stalled());
-  EXPECT_TRUE(meaningfulGain(0.01, std::pow(0.1 - 1e-3, 2), 1.0));
-  EXPECT_FALSE(meaningfulGain(0.01, std::pow(0.1 - 5e-5, 2), 1.0));
+  EXPECT_TRUE(meaningfulGain(0.01, std::pow(0.1 - 2e-5, 2), 1.0, 3));
+  EXPECT_FALSE(meaningfulGain(0.01, std::pow(0.1 - 1e-5, 2), 1.0, 3));
+  // The threshold grows with the iterations spent: 1e-3 over 200.
+  EXPECT_FALSE(meaningfulGain(0.01, std::pow(0.1 - 9e-4, 2), 1.0, 200));
+  EXPECT_TRUE(meaningfulGain(0.01, std::pow(0.1 - 1.1e-3, 2), 1.0, 200));
+  // ... and with the initial RMS (initial objective 4: RMS 2).
+  EXPECT_FALSE(meaningfulGain(0.01, std::pow(0.1 - 1.1e-3, 2), 4.0, 200));
 }
 
 class DesignMonitorTest : public testing::Test {
