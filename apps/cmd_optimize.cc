@@ -1,5 +1,5 @@
 // rodmesh optimize SCENE.json -o OUT.h5 [--method sand|reduced] ...: design
-// optimization (../shared/contracts.md §2 and §4). Finds the radii and rest
+// optimization (docs/formats.md §2 and §4). Finds the radii and rest
 // shape (design.parameters) for which every pose's equilibrium reproduces its
 // target, archives the design, its control points, the history, and every
 // pose re-solved from scratch under the final design (or, when that fails,

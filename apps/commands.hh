@@ -9,7 +9,7 @@
 
 namespace rodmesh::cli {
 
-// Exit statuses (../shared/contracts.md §2).
+// Exit statuses (docs/formats.md §2).
 constexpr int kExitDone = 0;
 constexpr int kExitNotConverged = 1;
 constexpr int kExitBadInput = 2;

@@ -1,4 +1,4 @@
-// The HDF5 result archive, "rodmesh-archive/1" (../shared/contracts.md §3).
+// The HDF5 result archive, "rodmesh-archive/1" (docs/formats.md §3).
 //
 // Layout (all float64, SI units):
 //   /            attrs  format, version, command, status            (strings)

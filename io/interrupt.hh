@@ -1,5 +1,5 @@
 // SIGINT / SIGTERM handling: an interrupted run never leaves a temporary file
-// behind (../shared/contracts.md §2), and a long run can stop cleanly.
+// behind (docs/formats.md §2), and a long run can stop cleanly.
 //
 // Two mechanisms, both process-wide (signal dispositions belong to the process):
 //

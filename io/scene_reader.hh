@@ -1,4 +1,4 @@
-// Reads and validates a "rodmesh-scene/1" JSON file (../shared/contracts.md §1).
+// Reads and validates a "rodmesh-scene/1" JSON file (docs/formats.md §1).
 #pragma once
 
 #include "model/scene.hh"

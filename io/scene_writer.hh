@@ -1,4 +1,4 @@
-// Writes a Scene as "rodmesh-scene/1" JSON (../shared/contracts.md §1).
+// Writes a Scene as "rodmesh-scene/1" JSON (docs/formats.md §1).
 #pragma once
 
 #include "model/scene.hh"

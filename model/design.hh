@@ -1,5 +1,5 @@
 // Design: the per-vertex design parameters of a rod mesh, the quantities an
-// optimiser may change (../shared/contracts.md §4).
+// optimiser may change (docs/formats.md §4).
 //
 // Vector layout (toVector / fromVector), used by every design derivative:
 //   1. rest positions, 3 per vertex, vertex-major [m];

@@ -1,5 +1,5 @@
 // DesignSpace: the control-point parameterization of a rod mesh's design
-// (Pérez et al. 2015 §4.1 and §4.3; ../shared/contracts.md §4).
+// (Pérez et al. 2015 §4.1 and §4.3; docs/formats.md §4).
 //
 // Control points. Every rod carries n = scene.design.controlPointsPerRod >= 2
 // control points at arc fractions j/(n-1), j = 0..n-1, where the arc fraction

@@ -1,5 +1,5 @@
 // RodNetwork: the topology and rest geometry of a rod mesh, derived once from a
-// Scene (../shared/contracts.md §1).
+// Scene (docs/formats.md §1).
 //
 // Vertices are scene vertices. Edges are numbered rod by rod, each oriented
 // along its rod's vertex order (edge e goes from edges[e].a to edges[e].b).

@@ -1,4 +1,4 @@
-// Scene: the in-memory form of a "rodmesh-scene/1" file (../shared/contracts.md §1).
+// Scene: the in-memory form of a "rodmesh-scene/1" file (docs/formats.md §1).
 //
 // Plain data, SI units throughout (metres, pascals, kg/m^3, newtons). The scene
 // reader (io/scene_reader.hh) fills it and validates everything a user can get

@@ -1,6 +1,6 @@
 // Cross-section stiffnesses of an elliptic section with semi-axes r_t (in the
 // surface's tangent plane) and r_n (along the reference normal), as fixed by
-// ../shared/contracts.md §1. Templated on the scalar so that design
+// docs/formats.md §1. Templated on the scalar so that design
 // derivatives (w.r.t. the radii) come out of the same code.
 #pragma once
 

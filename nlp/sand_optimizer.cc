@@ -561,9 +561,8 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
       // infeasibility need not fall at such a point: the objective's scale
       // is gone, what is left is the equilibria's own round-off), and when
       // the settled iterates stopped improving (StallDetector).
-      if (!(iter == 0 && base > 0))
-        stall.add(settled ? it.objective : std::numeric_limits<double>::infinity(),
-                  it.constraintViolation <= 1e-3 * minLoad);
+      stall.add(settled ? it.objective : std::numeric_limits<double>::infinity(),
+                it.constraintViolation <= 1e-3 * minLoad);
       targetsMet = iter > 0 && settled && it.objective <= kTargetsMetRatio * res.initialObjective;
       stalled = iter > 0 && stall.stalled();
       nearlyConverged = nearlyConverged || targetsMet || stalled;

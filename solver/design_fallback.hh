@@ -1,4 +1,4 @@
-// Which design `rodmesh optimize` archives (../shared/contracts.md §4,
+// Which design `rodmesh optimize` archives (docs/formats.md §4,
 // "Outcome"): every archived pose must be an equilibrium re-solved from
 // scratch (Newton from the rest state) under the archived design, so that
 // `rodmesh simulate` on a scene carrying the archived rest positions and

@@ -1,5 +1,5 @@
 // Design optimization shared by both optimizers, and the paper's reduced-space
-// method (Pérez et al. 2015, §4.2-4.3; ../shared/contracts.md §4).
+// method (Pérez et al. 2015, §4.2-4.3; docs/formats.md §4).
 //
 // Problem: minimise f = 1/2 sum_k w_k sum_v |q_kv - target_kv|^2 over the
 // design control values z (model/design_space.hh) subject to every pose's
