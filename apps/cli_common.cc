@@ -77,6 +77,9 @@ ArchivePose makeArchivePose(const std::string& name, const std::vector<Vec3>& po
   p.iterations = solve.iterations;
   p.timeSeconds = solve.timeSeconds;
   p.outOfPlaneStable = solve.outOfPlaneStable;
+  p.stable = solve.stable;
+  p.smallestEigenvalue = solve.smallestEigenvalue;
+  p.criticalPoints = solve.criticalPoints;
   return p;
 }
 
@@ -118,6 +121,12 @@ PoseSolveSummary newtonSolveSummary(const PoseResult& pr) {
   sum.iterations = pr.report.iterations;
   sum.timeSeconds = pr.report.timeSeconds;
   if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
+  if (pr.stable) sum.stable = *pr.stable ? 1 : 0;
+  sum.smallestEigenvalue = pr.smallestEigenvalue;
+  const auto& cps = pr.report.criticalPoints;
+  sum.criticalPoints.resize(static_cast<Eigen::Index>(cps.size()), 3);
+  for (std::size_t k = 0; k < cps.size(); ++k)
+    sum.criticalPoints.row(static_cast<Eigen::Index>(k)) << cps[k].loadFactor, cps[k].smallestEigenvalue, cps[k].jump;
   return sum;
 }
 

@@ -36,6 +36,9 @@ struct PoseSolveSummary {
   int iterations = 0;
   double timeSeconds = 0.0;
   int outOfPlaneStable = -1;  // 1/0 for planar Newton solves, -1 unknown (not written)
+  int stable = -1;            // 1/0: the state is a stable equilibrium; -1 unknown (not written)
+  std::optional<double> smallestEigenvalue;  // N/m
+  MatX3 criticalPoints;                      // load factor, eigenvalue (N/m), jump (m) per row
 };
 
 // The summary of a pose solved by Newton (simulateAll): non-finite loads or

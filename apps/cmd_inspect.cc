@@ -64,6 +64,14 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
                     std::sqrt((p.initialPositions - p.target).squaredNorm() / p.target.rows()) * 1e3);
       if (p.equilibriumGap) std::printf(", equilibrium gap %.3e mm", *p.equilibriumGap * 1e3);
       std::printf("\n");
+      if (p.stable >= 0 || p.smallestEigenvalue) {
+        std::printf("          %s", p.stable == 1 ? "stable" : p.stable == 0 ? "UNSTABLE" : "stability unknown");
+        if (p.smallestEigenvalue) std::printf(", smallest stiffness eigenvalue %.4g N/m", *p.smallestEigenvalue);
+        std::printf("\n");
+      }
+      for (Eigen::Index k = 0; k < p.criticalPoints.rows(); ++k)
+        std::printf("          critical point at load factor %.4g (eigenvalue %.3g N/m), jumped %.4f mm\n",
+                    p.criticalPoints(k, 0), p.criticalPoints(k, 1), p.criticalPoints(k, 2) * 1e3);
     }
     if (a.optimize) {
       if (const auto rms = overallRmsError(a)) std::printf("rms       %.4f mm over all poses\n", *rms * 1e3);

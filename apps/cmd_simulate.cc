@@ -179,7 +179,7 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
 
     // Every pose goes through the archive builders shared with `optimize`
     // (apps/cli_common.hh); the progress line reads the archived values.
-    const bool twist = model.effects().has(Effect::Twist);
+    bool twist = model.effects().has(Effect::Twist);
     // Why each pose that did not converge stopped (e.g. the load factor its
     // archived positions are in equilibrium at), for the root `message`.
     std::string reasons;
@@ -208,6 +208,9 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       addPose(p, sys.positions(u, design), sys.materialTwists(u, design), solve, details, reason);
     };
 
+    // The 3D scene and model of a planar scene that leaves its plane (below).
+    std::unique_ptr<Scene> spatialScene;
+    std::unique_ptr<SceneModel> spatialModel;
     if (o.dynamic) {
       a.extraRootAttributes["solver"] = "backward_euler";
       a.extraRootAttributes["duration_s"] = std::to_string(o.duration);
@@ -266,17 +269,51 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       }
     } else {
       a.extraRootAttributes["solver"] = "newton";
+      // A scene inferred planar is solved in plane; when an in-plane
+      // equilibrium turns out unstable against out-of-plane motion (lateral
+      // buckling), the structure does not stay in its plane: every pose is
+      // solved again in 3D with twist, and the archive is that model's.
+      bool outOfPlaneUnstable = false;
+      const bool mayLeavePlane = model.effects().planar && !scene.effects;
       auto progress = [&](int p, const PoseResult& pr) {
+        if (mayLeavePlane && pr.outOfPlaneStable && !*pr.outOfPlaneStable) outOfPlaneUnstable = true;
         const PoseSolveSummary solve = newtonSolveSummary(pr);
         char details[256];
         std::snprintf(details, sizeof details, "%d Newton iterations, %d load steps, relative residual %.1e",
                       pr.report.iterations, pr.report.loadSteps, pr.report.relativeResidual);
         addPose(p, pr.positions, pr.twist, solve, details, pr.report.converged ? "" : pr.report.message);
+        if (!quiet)
+          for (const CriticalPoint& cp : pr.report.criticalPoints)
+            std::cerr << "  critical point at load factor " << cp.loadFactor << " (smallest stiffness eigenvalue "
+                      << cp.smallestEigenvalue << " N/m): jumped " << cp.jump * 1e3 << " mm to the equilibrium beyond\n";
         if (!quiet && solve.outOfPlaneStable == 0)
-          std::cerr << "  note: this in-plane equilibrium is unstable out of plane (a saddle of the 3D model); "
-                       "solve with \"effects\" including \"twist\" to find the buckled state\n";
+          std::cerr << "  note: this in-plane equilibrium is unstable out of plane (a saddle of the 3D model)"
+                    << (mayLeavePlane ? "; the scene is solved again in 3D\n"
+                                      : "; the scene's \"effects\" keep it in plane (add \"twist\" to find the "
+                                        "buckled state)\n");
       };
       simulateAll(model, design, o.newton, progress);
+      if (outOfPlaneUnstable) {
+        std::vector<Effect> fx;
+        for (int e = 0; e < kEffectCount; ++e)
+          if (model.effects().on[e] || static_cast<Effect>(e) == Effect::Twist) fx.push_back(static_cast<Effect>(e));
+        spatialScene = std::make_unique<Scene>(scene);
+        spatialScene->effects = fx;
+        spatialModel = std::make_unique<SceneModel>(*spatialScene);
+        SceneModel& model3d = *spatialModel;
+        if (!quiet) {
+          std::cerr << "an in-plane equilibrium is unstable out of plane: solving every pose in 3D with twist\n";
+          printEffects(model3d.effects(), model3d.network(), model3d.pose(0).numDofs());
+        }
+        a.poses.clear();
+        reasons.clear();
+        describeModel(a, model3d.network(), model3d.effects(), model3d.numPoses() > 0 ? model3d.pose(0).numDofs() : 0);
+        a.extraRootAttributes["effects_note"] =
+            "the scene was inferred planar, but an in-plane equilibrium was unstable out of plane; solved in 3D "
+            "with twist";
+        twist = model3d.effects().has(Effect::Twist);
+        simulateAll(model3d, design, o.newton, progress);
+      }
     }
 
     bool allOk = true, anyFailed = false;

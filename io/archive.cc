@@ -200,6 +200,11 @@ void writeContents(const Archive& a, hid_t file) {
       writeScalarAttr<long long>(g, "iterations", p.iterations, H5T_NATIVE_LLONG);
       writeScalarAttr<double>(g, "time_s", p.timeSeconds, H5T_NATIVE_DOUBLE);
       if (p.outOfPlaneStable >= 0) writeScalarAttr<int>(g, "out_of_plane_stable", p.outOfPlaneStable, H5T_NATIVE_INT);
+      if (p.stable >= 0) writeScalarAttr<int>(g, "stable", p.stable, H5T_NATIVE_INT);
+      if (p.smallestEigenvalue)
+        writeScalarAttr<double>(g, "smallest_eigenvalue", *p.smallestEigenvalue, H5T_NATIVE_DOUBLE);
+      if (p.criticalPoints.rows() > 0)
+        writeDoubles(g, "critical_points", p.criticalPoints.data(), {(hsize_t)p.criticalPoints.rows(), 3});
       if (p.initialPositions.rows() > 0)
         writeDoubles(g, "initial_positions", p.initialPositions.data(), {(hsize_t)p.initialPositions.rows(), 3});
       if (p.equilibriumGap) writeScalarAttr<double>(g, "equilibrium_gap", *p.equilibriumGap, H5T_NATIVE_DOUBLE);

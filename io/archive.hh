@@ -62,6 +62,14 @@ struct ArchivePose {
   int iterations = 0;
   double timeSeconds = 0.0;
   int outOfPlaneStable = -1;  // extension: 1/0 for planar solves, -1 unknown (not written)
+  // Extensions (Newton solves): 1/0 whether the archived state is a stable
+  // equilibrium (-1 unknown, not written), the stiffness eigenvalue of
+  // smallest magnitude there (N/m), and the critical points the loading path
+  // passed, one row each: load factor, smallest stiffness eigenvalue (N/m),
+  // jump (m).
+  int stable = -1;
+  std::optional<double> smallestEigenvalue;
+  MatX3 criticalPoints;
   // optimize only:
   MatX3 initialPositions;                // equilibrium under the initial design; empty: not written
   std::optional<double> equilibriumGap;  // m: largest |optimizer position - re-solved position|

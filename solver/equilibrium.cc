@@ -85,6 +85,15 @@ SimulationResult simulateAll(SceneModel& model, const Design& design, const Newt
     r.twist = sys.materialTwists(r.dofs, design);
     const auto& target = model.scene().poses[p].target;
     if (!target.empty()) r.rmsError = rmsError(r.positions, target);
+    if (r.report.outcome != Outcome::NumericalFailure && r.report.outcome != Outcome::InvalidProblem) {
+      sys.setLoadFactor(r.report.loadFactor);
+      const Stability st = stability(sys, design, r.dofs);
+      sys.setLoadFactor(1.0);
+      if (st.ok) {
+        r.stable = st.negative == 0;
+        r.smallestEigenvalue = st.smallestEigenvalue;
+      }
+    }
     if (model.effects().planar && r.report.converged)
       r.outOfPlaneStable = outOfPlaneStable(model.scene(), model.network(), model.effects(), p, design, r.positions);
     out.allConverged = out.allConverged && r.report.converged;

@@ -25,6 +25,12 @@ struct PoseResult {
   // Planar solves only: whether the in-plane equilibrium is also stable
   // against out-of-plane motion and twist in the full 3D model.
   std::optional<bool> outOfPlaneStable;
+  // Stability of the returned state (solver/newton.hh stability(): inertia of
+  // the Hessian at its load factor and the eigenvalue of smallest magnitude,
+  // N/m); unset when the state could not be judged (a numerical failure, an
+  // unsupported load).
+  std::optional<bool> stable;
+  std::optional<double> smallestEigenvalue;
 };
 
 struct SimulationResult {

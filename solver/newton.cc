@@ -69,7 +69,7 @@ std::string format(const char* fmt, double a) {
 
 NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale,
                               double tolerance, const NewtonOptions& opt, Clock::time_point deadline,
-                              bool hasDeadline) {
+                              bool hasDeadline, Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false) {
   const auto t0 = Clock::now();
   NewtonReport rep;
   rep.loadScale = scale;
@@ -126,6 +126,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     rep.factorSeconds += since(ta);
     rep.negativePivots = negative;
     rep.singularPivots = singular;
+    if (negative > 0) rep.negativeIterations++;
     const bool modified = negative > 0 || singular > 0;
 
     // Direction: Newton, or modified Newton (|D|, floored) where the Hessian
@@ -145,6 +146,13 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     rep.roundoffFloor = floorForce;
 
     const bool small = res <= tolerance * scale;
+    if (stopAtNegative && negative > 0) {
+      // A load step of the loading path that meets negative curvature is too
+      // long, or crosses a critical point: the caller shortens it.
+      rep.outcome = Outcome::Stalled;
+      rep.message = "met negative curvature";
+      break;
+    }
     if (small && negative == 0) {
       rep.converged = true;
       rep.outcome = Outcome::Converged;
@@ -278,6 +286,9 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
       }
     }
     if (modified || tau > 0) rep.hessianModifications++;
+    // The first unmodified Newton step from an equilibrium at a smaller load
+    // is the tangent (linear) prediction of the loading path.
+    if (firstStep && it == 0 && !modified && tau == 0) *firstStep = d;
 
     // Loads far beyond what the model can hold: the linear response to them
     // is itself beyond double precision.
@@ -536,37 +547,112 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   // mechanism's large rigid motion (a sheet swinging about a line of pinned
   // vertices) takes many iterations at any load, and smaller load steps do
   // not shorten it.
-  Eigen::VectorXd uTry = u;
-  NewtonReport r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
+  //
+  // On the loading path (opt.loadingPath), a state given at the full load is
+  // the equilibrium of a nearby design (an optimizer's warm start): Newton
+  // from it continues that equilibrium in the design, and is kept when it
+  // converges without meeting negative curvature. From any other state the
+  // full load is one step of the path from the state's load factor (rest:
+  // 0), kept when it is on the path (onPath below); otherwise the load is
+  // applied in adaptive steps.
+  const bool path = opt.loadingPath;
+  const bool warm = state.loadFactor >= 1.0;
+  const double size = structureSize(system, design, rest.u);
+  // Path steps that meet negative curvature are abandoned at once (they are
+  // shortened); their correctors are limited to this many iterations.
+  const int pathIterations = std::min(opt.maxIterations, 50);
+  NewtonOptions stepOpt = opt;
+  stepOpt.maxIterations = path ? pathIterations : opt.maxIterations;
+  // A load step from the equilibrium `from` to the converged `to` is on the
+  // loading path when the corrector met no negative curvature and `to` lies
+  // within opt.pathDeviation of the tangent prediction's displacement from
+  // that prediction (the first unmodified Newton step `tangent`): a state
+  // found much farther away belongs to another branch, or the step was too
+  // long to tell. Returns the deviation ratio (< 0: not on the path).
+  auto pathDeviation = [&](const NewtonReport& rs, const Eigen::VectorXd& from, const Eigen::VectorXd& to,
+                           const Eigen::VectorXd& tangent) -> double {
+    if (!rs.converged || rs.negativeIterations > 0 || rs.escapes > 0) return -1.0;
+    if (tangent.size() != from.size()) return -1.0;
+    const double lin = maxVertexStep(system, tangent);
+    const double dev = maxVertexStep(system, to - from - tangent);
+    if (dev <= 1e-9 * size) return 0.0;
+    const double ratio = dev / lin;
+    return ratio <= opt.pathDeviation ? ratio : -1.0;
+  };
+
+  Eigen::VectorXd uTry = u, tangent;
+  int metNegative = 0;
+  const bool fullFromState = !path || warm;
+  NewtonReport r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, fullFromState ? opt : stepOpt,
+                                    deadline, hasDeadline, &tangent, path && !warm);
   merge(r);
-  for (int resume = 0;
-       !r.converged && r.outcome == Outcome::MaxIterations && r.progressing && resume < opt.maxLoadHalvings; ++resume) {
+  metNegative += r.negativeIterations + r.escapes;
+  for (int resume = 0; fullFromState && !r.converged && r.outcome == Outcome::MaxIterations && r.progressing &&
+                       resume < opt.maxLoadHalvings;
+       ++resume) {
     r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
     merge(r);
+    metNegative += r.negativeIterations + r.escapes;
     total.resumes++;
   }
+  bool accepted = false;
+  if (!path)
+    accepted = r.converged;
+  else if (warm)
+    accepted = r.converged && metNegative == 0;
+  else
+    accepted = pathDeviation(r, u, uTry, tangent) >= 0.0;
   double reached = 1.0;
-  if (r.converged) {
+  if (accepted) {
     u = uTry;
   } else if (r.outcome == Outcome::TimeLimit) {
     reached = system.loadFactor() == 1.0 && state.loadFactor == 1.0 ? 1.0 : state.loadFactor;
     r.message = "time limit reached at the full load before convergence; the returned state is the initial guess";
   } else {
-    // Adaptive continuation in the load factor, from the rest state; the
-    // reference-frame charts travel with the state they belong to. Not for a
-    // structure with a zero-stiffness mode at rest (see the header): smaller
-    // loads need the same large motion along it.
+    // Adaptive continuation in the load factor from the rest state (or the
+    // given state below the full load); the reference-frame charts travel
+    // with the state they belong to. Not for a structure with a
+    // zero-stiffness mode at rest (see the header): smaller loads need the
+    // same large motion along it, and the full load from rest is its answer.
     system.setCharts(rest.charts);
     system.setLoadFactor(0.0);
     const Stability unloaded = stability(system, design, rest.u);
-    Eigen::VectorXd uCur = rest.u;
-    PoseSystem::Charts chartsCur = rest.charts;
-    double lam = 0.0, step = 0.5;
+    const bool fromGiven = !warm && state.loadFactor > 0.0;
+    Eigen::VectorXd uCur = fromGiven ? u : rest.u;
+    PoseSystem::Charts chartsCur = fromGiven ? state.charts : rest.charts;
+    double lam = fromGiven ? state.loadFactor : 0.0;
+    double step = 0.5 * (1.0 - lam);
     const double minStep = std::ldexp(1.0, -opt.maxLoadHalvings);
     // Intermediate load steps need not be tight, but never sloppy.
     const double stepTol = std::min(std::max(opt.tolerance, 1e-6), 1e-4);
-    bool failed = unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure, timedOut = false;
+    bool failed = false, timedOut = false;
     bool negativeBeyond = false;  // a failed step beyond lam met negative curvature
+    int pathSteps = 0;            // load steps kept (jumps past critical points included)
+    if (unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure) {
+      if (path && !warm && !r.converged) {
+        // The path step stopped at negative curvature: a mechanism's answer
+        // is the full load from rest, wherever its rigid motion leads.
+        system.setLoadFactor(1.0);
+        system.setCharts(rest.charts);
+        uTry = rest.u;
+        r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
+        merge(r);
+        for (int resume = 0;
+             !r.converged && r.outcome == Outcome::MaxIterations && r.progressing && resume < opt.maxLoadHalvings;
+             ++resume) {
+          r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
+          merge(r);
+          total.resumes++;
+        }
+      }
+      if (path && r.converged) {
+        uCur = uTry;
+        chartsCur = system.charts();
+        lam = 1.0;
+      } else {
+        failed = true;
+      }
+    }
     while (lam < 1.0 && !failed) {
       if ((hasDeadline && Clock::now() > deadline) || (opt.cancel && opt.cancel->load())) {
         timedOut = true;
@@ -576,31 +662,99 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
       system.setLoadFactor(next);
       system.setCharts(chartsCur);
       uTry = uCur;
-      NewtonReport rs = newtonSolveUntil(system, design, uTry, scale, next < 1.0 ? stepTol : opt.tolerance, opt,
-                                         deadline, hasDeadline);
+      tangent.resize(0);
+      NewtonReport rs = newtonSolveUntil(system, design, uTry, scale, next < 1.0 ? stepTol : opt.tolerance, stepOpt,
+                                         deadline, hasDeadline, &tangent, path);
       merge(rs);
       r = rs;
-      if (rs.converged) {
+      const double deviation = path ? pathDeviation(rs, uCur, uTry, tangent) : (rs.converged ? 0.0 : -1.0);
+      if (deviation >= 0.0) {
+        ++pathSteps;
         lam = next;
         uCur = uTry;
         chartsCur = system.charts();
-        step = std::min(2 * step, 1.0);
+        if (deviation <= 0.25 * opt.pathDeviation) step = std::min(2 * step, 1.0);
         negativeBeyond = false;
-      } else if (rs.outcome == Outcome::TimeLimit) {
+        continue;
+      }
+      if (rs.outcome == Outcome::TimeLimit) {
         timedOut = true;
         break;
-      } else {
-        negativeBeyond = negativeBeyond || rs.negativePivots > 0 || rs.escapes > 0 || rs.unstable;
-        step *= 0.5;
-        if (step < minStep) {
-          failed = true;
+      }
+      negativeBeyond = negativeBeyond || rs.negativePivots > 0 || rs.escapes > 0 || rs.unstable ||
+                       rs.negativeIterations > 0;
+      step *= 0.5;
+      if (step >= minStep) continue;
+      if (path) {
+        // No step of at least minStep stays on the branch: a limit or
+        // bifurcation point (or a path too steep to follow). Under a load
+        // that keeps rising the structure leaves it for the equilibrium it
+        // falls into (a snap-through, or buckling into a lateral mode): one
+        // unrestricted solve just beyond it, from the last state of the
+        // branch.
+        const double beyond = std::min(1.0, lam + minStep);
+        system.setLoadFactor(beyond);
+        system.setCharts(chartsCur);
+        uTry = uCur;
+        NewtonReport rj = newtonSolveUntil(system, design, uTry, scale, beyond < 1.0 ? stepTol : opt.tolerance, opt,
+                                           deadline, hasDeadline);
+        merge(rj);
+        for (int resume = 0;
+             !rj.converged && rj.outcome == Outcome::MaxIterations && rj.progressing && resume < opt.maxLoadHalvings;
+             ++resume) {
+          rj = newtonSolveUntil(system, design, uTry, scale, beyond < 1.0 ? stepTol : opt.tolerance, opt, deadline,
+                                hasDeadline);
+          merge(rj);
+          total.resumes++;
+        }
+        r = rj;
+        if (rj.outcome == Outcome::TimeLimit) {
+          timedOut = true;
           break;
         }
+        if (rj.converged) {
+          const PoseSystem::Charts chartsBeyond = system.charts();
+          system.setLoadFactor(lam);
+          system.setCharts(chartsCur);
+          const Stability there = stability(system, design, uCur);
+          const bool critical = negativeBeyond || (there.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
+                                                   there.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
+          if (critical) {
+            CriticalPoint cp;
+            cp.loadFactor = lam;
+            cp.smallestEigenvalue = there.smallestEigenvalue;
+            cp.jump = maxVertexStep(system, uTry - uCur);
+            total.criticalPoints.push_back(cp);
+          }
+          ++pathSteps;
+          lam = beyond;
+          uCur = uTry;
+          chartsCur = chartsBeyond;
+          step = 2 * minStep;
+          negativeBeyond = false;
+          continue;
+        }
+        negativeBeyond = negativeBeyond || rj.negativePivots > 0 || rj.unstable;
       }
+      failed = true;
     }
     u = uCur;
     system.setCharts(chartsCur);
     reached = lam;
+    if (!failed && !timedOut && lam >= 1.0) {
+      r.converged = true;
+      r.outcome = Outcome::Converged;
+      if (path && pathSteps > 0) {
+        std::ostringstream os;
+        os << r.message << "; loading path followed in " << pathSteps << " load steps";
+        for (const CriticalPoint& cp : total.criticalPoints)
+          os << "; passed a critical point at load factor " << format("%.4g", cp.loadFactor)
+             << " (smallest stiffness eigenvalue " << format("%.3g", cp.smallestEigenvalue)
+             << " N/m): the structure left its branch there and jumped by " << format("%.3g", cp.jump)
+             << " m to the equilibrium beyond (snap-through or buckling)";
+        r.message = os.str();
+      }
+    }
     if (timedOut) {
       r.converged = false;
       r.outcome = Outcome::TimeLimit;

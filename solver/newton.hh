@@ -58,10 +58,25 @@ struct NewtonOptions {
   int maxLoadHalvings = 10;     // continuation: smallest load step is 2^-maxLoadHalvings
   int maxEscapes = 20;          // steps along negative curvature away from unstable equilibria
   double timeLimit = 0.0;       // s of wall-clock time for a whole solveEquilibrium; 0: none
+  // Follow the loading path from rest (see solveEquilibrium); false: the full
+  // load at once from the given state, continuation only when Newton fails
+  // (any equilibrium Newton finds; kept for comparisons).
+  bool loadingPath = true;
+  // A load step is on the path when its converged state lies within this
+  // fraction of the tangent prediction's displacement from that prediction.
+  double pathDeviation = 1.0;
   // Set by another thread to stop a solve early (checked where the time
   // limit is; the solve then ends as if its time limit had passed).
   const std::atomic<bool>* cancel = nullptr;
   std::string isValid() const;  // empty if valid, else what is wrong
+};
+
+// A point of the loading path where the equilibrium lost its stability (a
+// limit or bifurcation point): the structure leaves the branch it was on.
+struct CriticalPoint {
+  double loadFactor = 0.0;          // last load factor on the branch before it
+  double smallestEigenvalue = 0.0;  // N/m, of the stiffness there (near zero at the critical point)
+  double jump = 0.0;                // m, largest vertex displacement to the equilibrium beyond it
 };
 
 // Outcome of one Newton solve (one load step) or of a whole continuation.
@@ -81,6 +96,8 @@ struct NewtonReport {
   bool roundoff = false;          // converged because the Newton correction reached round-off
   bool unstable = false;          // stopped at an equilibrium with negative curvature (a saddle: not converged)
   int negativePivots = 0;         // of the last factorization (0: stable)
+  int negativeIterations = 0;     // iterations whose Hessian had negative pivots (met negative curvature)
+  std::vector<CriticalPoint> criticalPoints;  // passed on the loading path, in load order
   int singularPivots = 0;         // of the last factorization: pivots at round-off (zero-stiffness modes)
   double roundoffFloor = 0.0;     // N, estimated force residual of round-off at the final state (rule 2 above)
   double loadFactor = 1.0;        // load factor of the returned state (< 1: the full load was not reached)
@@ -99,20 +116,45 @@ struct NewtonReport {
 NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale, double tolerance,
                          const NewtonOptions& options);
 
-// Full static solve of one pose with adaptive load continuation: tries the
-// full load first from `state` (its unknowns and charts: a warm start) and,
-// if Newton fails, advances the load factor in smaller steps from the rest
-// state. On exit `state` holds the solution, its charts and the load factor
-// reached (1 unless the continuation gave up).
+// Full static solve of one pose: the stable equilibrium the structure reaches
+// when its loads (forces, moments, weight and prescribed displacements, all
+// scaled by one load factor) are applied quasi-statically from rest.
 //
-// When the continuation cannot advance (the load step falls below
-// 2^-maxLoadHalvings), the state returned is the equilibrium at the last load
-// factor reached, report.loadFactor says which, the outcome is not Converged,
-// and the message says so. If the stiffness there has (nearly) lost its
-// positive definiteness, or the failed steps beyond it met negative
-// curvature, the message reads "the equilibrium path was lost at load factor
-// X (a limit or bifurcation point; smallest stiffness eigenvalue Y N/m ...)"
-// and report.smallestEigenvalue holds Y.
+// From a state below the full load (the rest state for a solve from scratch)
+// the load factor is advanced from the state's to 1 in steps as long as the
+// path allows: the full load in one step first (easy scenes cost one Newton
+// solve), shorter steps where a step is not on the path. A step is on the
+// path when its Newton corrector never meets negative curvature and lands
+// within NewtonOptions::pathDeviation of the tangent prediction's
+// displacement from that prediction (the first Newton step is the tangent);
+// steps are halved when not, doubled when the prediction was good. Where no
+// step of 2^-maxLoadHalvings stays on the branch (a limit or bifurcation
+// point) the structure leaves it as a rising load makes it: one unrestricted
+// solve just beyond, which escapes along negative curvature (a snap-through,
+// or buckling into a lateral mode); the point, its smallest stiffness
+// eigenvalue and the jump are reported (NewtonReport::criticalPoints) and the
+// path goes on from there. Converged always means a stable equilibrium (no
+// negative pivot in the final factorization).
+//
+// A state given at the full load (state.loadFactor == 1: an optimizer's warm
+// start, the equilibrium of a nearby design) is continued in the design:
+// Newton from it, kept when it converges without meeting negative
+// curvature; otherwise the loading path from rest decides.
+//
+// A structure with a zero-stiffness mode at rest (a mechanism) cannot be
+// loaded gradually (smaller loads need the same large motion): the full load
+// from rest is its answer. NewtonOptions::loadingPath = false restores the
+// full load at once from the given state, with continuation only when Newton
+// fails.
+//
+// When the continuation cannot advance at all (no equilibrium within
+// 2^-maxLoadHalvings beyond a load factor), the state returned is the
+// equilibrium at the last load factor reached, report.loadFactor says which,
+// the outcome is not Converged, and the message says so. If the stiffness
+// there has (nearly) lost its positive definiteness, or the failed steps
+// beyond it met negative curvature, the message reads "the equilibrium path
+// was lost at load factor X (a limit or bifurcation point; smallest stiffness
+// eigenvalue Y N/m ...)" and report.smallestEigenvalue holds Y.
 //
 // Non-finite loads (a load scale that overflows) or non-finite energies and
 // forces end with Outcome::NumericalFailure, never Converged.

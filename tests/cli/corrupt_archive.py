@@ -20,6 +20,13 @@ def replace(f, path, data, **kw):
     f.create_dataset(path, data=data, **kw)
 
 
+def put(f, path, **kw):
+    """Creates dataset `path`, replacing one already there."""
+    if path in f:
+        del f[path]
+    f.create_dataset(path, **kw)
+
+
 def set_scene(f, edit):
     scene = f["scene"][()].decode()
     del f["scene"]
@@ -52,7 +59,7 @@ DAMAGE = {
     "pose_short": lambda f: replace(f, "poses/large/positions", f["poses/large/positions"][:-1]),
     "target_long": lambda f: replace(f, "poses/small/target", np.vstack([f["poses/small/target"][()]] * 2)),
     "radii_three_columns": lambda f: replace(f, "design/radii", np.ones((f["design/radii"].shape[0], 3)) * 1e-3),
-    "twist_wrong_length": lambda f: f["poses/large"].create_dataset("twist", data=np.zeros(2)),
+    "twist_wrong_length": lambda f: put(f, "poses/large/twist", data=np.zeros(2)),
     "scalar_rest": lambda f: replace(f, "rest/positions", 1.0),
     "empty_rest": lambda f: replace(f, "rest/positions", np.zeros((0, 3))),
     # wrong types
@@ -69,7 +76,7 @@ DAMAGE = {
     "rest_external_link": lambda f: (f.__delitem__("rest/positions"), f["rest"].__setitem__("positions", h5py.ExternalLink("/etc/passwd", "/x"))),
     # huge declared sizes (chunked, never written: nothing on disk)
     "huge_rest": lambda f: (f.__delitem__("rest/positions"), f["rest"].create_dataset("positions", shape=(2**40, 3), dtype="f8", chunks=(1024, 3))),
-    "huge_twist": lambda f: (f["model"].attrs.__setitem__("n_edges", np.int64(2**31 - 1)), f["poses/large"].create_dataset("twist", shape=(2**31 - 1,), dtype="f8", chunks=(4096,))),
+    "huge_twist": lambda f: (f["model"].attrs.__setitem__("n_edges", np.int64(2**31 - 1)), put(f, "poses/large/twist", shape=(2**31 - 1,), dtype="f8", chunks=(4096,))),
     "huge_string": lambda f: (f.__delitem__("scene"), f.create_dataset("scene", shape=(), dtype=h5py.string_dtype("utf-8", 2**31 - 2))),
     # bad values
     "nan_pose": lambda f: f["poses/large/positions"].__setitem__((2, 1), np.nan),

@@ -366,6 +366,10 @@ Scene shallowArch(double P) {
   }
   s.poses[0].fixed = {{0, std::nullopt}, {n - 1, std::nullopt}};
   s.poses[0].forces.push_back({n / 2, Vec3(0, 0, -P)});
+  // The arch problem of the plane: in 3D, two pinned (ball-jointed) ends
+  // leave the arch free to turn about its chord, an inverted pendulum under
+  // the crown load, and an inferred-planar scene would be solved again in 3D.
+  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend};
   return s;
 }
 
@@ -384,6 +388,118 @@ void arch(HardCase& t, double P, bool snaps) {
 
 TEST_F(HardStatics, ShallowArchBelowItsLimitLoadStaysUp) { arch(*this, 0.2, false); }
 TEST_F(HardStatics, ShallowArchSnapsThrough) { arch(*this, 5.0, true); }
+
+// --- The loading path: critical points, imperfections ----------------------------
+
+// A clamped-free column (r = 1 cm, L = 1 m, 50 edges) along z under an axial
+// dead load P at its tip, and optionally a lateral tip force H along x.
+struct ColumnRun {
+  Vec3 tip;
+  Archive archive;
+  int status = -1;
+  std::string err;
+};
+ColumnRun loadedColumn(HardCase& t, double P, double H) {
+  const double r = 0.01, L = 1.0;
+  Scene s = straightRod(51, L, r, kIssueMaterial, Vec3::UnitZ());
+  s.poses[0].clamped.push_back({0});
+  s.poses[0].forces.push_back({50, Vec3(H, 0, -P)});
+  ColumnRun c;
+  const RunResult run = t.simulate(s);
+  c.status = run.status;
+  c.err = run.err;
+  if (run.status == 0 || run.status == 1) {
+    c.archive = t.archive();
+    c.tip = row(onlyPose(c.archive).positions, 50);
+  }
+  return c;
+}
+double columnBucklingLoad() { return kPi * kPi * EI(kIssueMaterial, 0.01) / 4.0; }
+
+// Just below its buckling load a perfect column stays straight: a stable
+// equilibrium, no critical point on the way, a positive smallest stiffness.
+TEST_F(HardStatics, PerfectColumnJustBelowBucklingStaysStraightAndStable) {
+  const ColumnRun c = loadedColumn(*this, 0.95 * columnBucklingLoad(), 0.0);
+  ASSERT_EQ(c.status, 0) << c.err;
+  const ArchivePose& p = onlyPose(c.archive);
+  EXPECT_LT(std::hypot(c.tip.x(), c.tip.y()), 1e-9);
+  EXPECT_EQ(p.stable, 1);
+  ASSERT_TRUE(p.smallestEigenvalue.has_value());
+  EXPECT_GT(*p.smallestEigenvalue, 0.0);
+  EXPECT_EQ(p.criticalPoints.rows(), 0);
+}
+
+// Just above it the straight column becomes a saddle on the way: the path
+// reports the critical point at the buckling load (within 1%: 50 edges, a
+// load step of 2^-10) and ends on the buckled elastica, stable.
+TEST_F(HardStatics, PerfectColumnJustAboveBucklingReportsItsCriticalLoad) {
+  const double Pcr = columnBucklingLoad(), P = 1.1 * Pcr;
+  const ColumnRun c = loadedColumn(*this, P, 0.0);
+  ASSERT_EQ(c.status, 0) << c.err;
+  const ArchivePose& p = onlyPose(c.archive);
+  EXPECT_EQ(p.stable, 1);
+  ASSERT_EQ(p.criticalPoints.rows(), 1) << c.err;
+  EXPECT_NEAR(p.criticalPoints(0, 0) * P, Pcr, 0.01 * Pcr);
+  const Vec2 ref = columnElastica(P, EI(kIssueMaterial, 0.01), 1.0);
+  EXPECT_NEAR(std::hypot(c.tip.x(), c.tip.y()), ref[0], 5e-3);
+  EXPECT_NEAR(c.tip.z(), ref[1], 5e-3);
+}
+
+// With an imperfection (a lateral tip force H = 1e-3 P) below the buckling
+// load, linear beam-column theory gives the tip deflection
+// H / (P k) (tan kL - kL), k = sqrt(P / EI): amplified ~7x at 0.9 Pcr.
+TEST_F(HardStatics, ImperfectColumnBelowBucklingMatchesBeamColumnTheory) {
+  const double P = 0.9 * columnBucklingLoad(), H = 1e-3 * P;
+  const ColumnRun c = loadedColumn(*this, P, H);
+  ASSERT_EQ(c.status, 0) << c.err;
+  const double k = std::sqrt(P / EI(kIssueMaterial, 0.01));
+  const double ref = H / (P * k) * (std::tan(k) - k);
+  EXPECT_NEAR(c.tip.x(), ref, 0.02 * ref);
+  EXPECT_EQ(onlyPose(c.archive).stable, 1);
+}
+
+// Above it, the imperfection picks the side: the column bends towards H and
+// ends near the perfect column's elastica.
+TEST_F(HardStatics, ImperfectColumnAboveBucklingBendsTowardsItsImperfection) {
+  const double P = 1.1 * columnBucklingLoad(), H = 1e-3 * P;
+  const ColumnRun c = loadedColumn(*this, P, H);
+  ASSERT_EQ(c.status, 0) << c.err;
+  const Vec2 ref = columnElastica(P, EI(kIssueMaterial, 0.01), 1.0);
+  EXPECT_GT(c.tip.x(), 0.0);
+  EXPECT_NEAR(c.tip.x(), ref[0], 0.03);
+  EXPECT_NEAR(std::abs(c.tip.y()), 0.0, 1e-6);
+  EXPECT_EQ(onlyPose(c.archive).stable, 1);
+}
+
+// The shallow arch under a load beyond its limit: the path reports where it
+// snapped. Loaded to 95% of that load it stays up (no critical point, a
+// stable state); to 105%, it snaps. The full load at once from rest can
+// land on the inverted side below the limit load; the loading path cannot.
+TEST_F(HardStatics, ShallowArchSnapsThroughAtTheCriticalPointItReports) {
+  const double P = 5.0;
+  ASSERT_EQ(simulate(shallowArch(P)).status, 0);
+  const Archive snapped = archive();
+  const ArchivePose& ps = onlyPose(snapped);
+  ASSERT_GE(ps.criticalPoints.rows(), 1);
+  const double Pc = ps.criticalPoints(0, 0) * P;
+  EXPECT_GT(ps.criticalPoints(0, 2), 0.05) << "the crown jumps by more than the rise";
+  EXPECT_GT(Pc, 0.2);
+  EXPECT_LT(Pc, 5.0);
+  for (const double f : {0.95, 1.05}) {
+    const RunResult run = simulate(shallowArch(f * Pc));
+    ASSERT_EQ(run.status, 0) << run.err;
+    const Archive a = archive();
+    const ArchivePose& p = onlyPose(a);
+    EXPECT_EQ(p.stable, 1);
+    if (f < 1) {
+      EXPECT_GT(p.positions(20, 2), 0.0) << "the crown stays up at " << f << " of the critical load";
+      EXPECT_EQ(p.criticalPoints.rows(), 0);
+    } else {
+      EXPECT_LT(p.positions(20, 2), -0.05) << "the crown snaps through at " << f << " of the critical load";
+      EXPECT_GE(p.criticalPoints.rows(), 1);
+    }
+  }
+}
 
 // --- Contrasts, free bodies, extreme loads ------------------------------------
 
@@ -646,6 +762,104 @@ TEST_F(HardStatics, HingedSheetSwingsUnderACornerForce) {
   const double arm = s.vertices[corner].x() - hingeX;
   EXPECT_NEAR(c.x(), hingeX, 0.01 * arm);
   EXPECT_NEAR(c.z(), -arm, 0.01 * arm);
+}
+
+// In-plane shear of a 3x3 hexagonal patch (100 x 96 mm, TPU rods of
+// r = 0.5 mm, 11 vertices per rod), its left side clamped, a force along y
+// shared by the four connections of its right side, in plane. The patch is
+// a deep, thin cantilever: under a quarter of 17.7 mN it buckles laterally
+// (out of plane, with twist). Its in-plane equilibrium at the full load
+// (23.6 mm) is a saddle of the 3D model that only a perfectly symmetric
+// solve stays on. `zShare`: an out-of-plane imperfection, that fraction of
+// the in-plane force along z.
+Scene shearedPatch(double force, double zShare, bool spatial) {
+  meshing::GridOptions o;
+  o.width = 0.1;
+  o.height = 0.096;
+  o.cellsX = o.cellsY = 3;
+  o.radius = Vec2(0.0005, 0.0005);
+  o.radiusMin = 0.0001;
+  o.radiusMax = 0.001;
+  o.designRadii = o.designRestShape = false;
+  o.fixSides = {meshing::GridSide::Left};
+  o.pulls = {{meshing::GridSide::Right, Vec3(0, force, zShare * force)}};
+  Scene s = meshing::makeGridSheet(o).scene;
+  s.design = DesignSpec{};
+  for (const auto& f : s.poses[0].fixed) s.poses[0].clamped.push_back({f.vertex});
+  s.poses[0].fixed.clear();
+  if (spatial) s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Twist, Effect::Connections};
+  return s;
+}
+double largestDisplacement(const Scene& s, const MatX3& x, int axis) {
+  double m = 0.0;
+  for (std::size_t v = 0; v < s.vertices.size(); ++v)
+    m = std::max(m, std::abs(x(static_cast<Eigen::Index>(v), axis) - s.vertices[v][axis]));
+  return m;
+}
+
+// Below the critical load the patch stays in plane: the planar solve is
+// stable out of plane and agrees with the 3D model with twist.
+TEST_F(HardStatics, ShearedPatchBelowItsCriticalLoadStaysInPlane) {
+  const double P = 0.2 * 0.0177;
+  const Scene planar = shearedPatch(P, 0.0, false);
+  ASSERT_EQ(simulate(planar).status, 0);
+  const Archive a = archive();
+  const ArchivePose& p = onlyPose(a);
+  EXPECT_EQ(p.outOfPlaneStable, 1);
+  EXPECT_EQ(p.stable, 1);
+  EXPECT_EQ(p.twist.size(), 0) << "solved in plane";
+  EXPECT_GT(largestDisplacement(planar, p.positions, 1), 1e-3);
+  ASSERT_EQ(simulate(shearedPatch(P, 0.0, true)).status, 0);
+  const Archive b = archive();
+  EXPECT_EQ(onlyPose(b).criticalPoints.rows(), 0);
+  EXPECT_LT((onlyPose(b).positions - p.positions).cwiseAbs().maxCoeff(), 1e-7);
+}
+
+// At the full load the loading path passes the lateral buckling point (a
+// quarter of the load, where the smallest stiffness eigenvalue vanishes)
+// and ends out of plane, stable. The planar scene says its in-plane state is
+// unstable and is solved again in 3D; an imperfection of 1e-4 of the force
+// along z leads smoothly to the same state; so does a dynamic run with the
+// load ramped in over 3 s (backward Euler, 6 s).
+TEST_F(HardStatics, ShearedPatchBucklesLaterallyWhereItsPathSaysSo) {
+  const double P = 0.0177;
+  const Scene planar = shearedPatch(P, 0.0, false);
+  const RunResult run = simulate(planar);
+  ASSERT_EQ(run.status, 0) << run.err;
+  const Archive a = archive();
+  const ArchivePose& p = onlyPose(a);
+  EXPECT_GT(p.twist.size(), 0) << "solved again in 3D";
+  EXPECT_EQ(p.stable, 1);
+  ASSERT_GE(p.criticalPoints.rows(), 1);
+  EXPECT_GT(p.criticalPoints(0, 0), 0.2);
+  EXPECT_LT(p.criticalPoints(0, 0), 0.3);
+  EXPECT_LT(std::abs(p.criticalPoints(0, 1)), 1e-3 * *p.smallestEigenvalue + 1e-4)
+      << "the stiffness nearly vanishes at the critical point";
+  EXPECT_GT(largestDisplacement(planar, p.positions, 2), 0.02) << "out of plane";
+
+  ASSERT_EQ(simulate(shearedPatch(P, 1e-4, true)).status, 0);
+  const Archive imperfect = archive();
+  EXPECT_LT((onlyPose(imperfect).positions.cwiseAbs() - p.positions.cwiseAbs()).cwiseAbs().maxCoeff(), 5e-4);
+
+  const RunResult dyn = simulate(shearedPatch(P, 1e-4, true), "--dynamic --duration 6 --ramp 3 --fps 1");
+  ASSERT_EQ(dyn.status, 0) << dyn.err;
+  const Archive d = archive();
+  EXPECT_LT((onlyPose(d).positions.cwiseAbs() - p.positions.cwiseAbs()).cwiseAbs().maxCoeff(), 5e-4);
+}
+
+// A planar scene whose "effects" exclude twist stays in plane as asked: the
+// in-plane equilibrium (23.6 mm) is archived, marked unstable out of plane.
+TEST_F(HardStatics, ShearedPatchKeptInPlaneByItsEffectsIsMarkedUnstableOutOfPlane) {
+  Scene s = shearedPatch(0.0177, 0.0, false);
+  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Connections};
+  ASSERT_EQ(simulate(s).status, 0);
+  const Archive a = archive();
+  const ArchivePose& p = onlyPose(a);
+  EXPECT_EQ(p.outOfPlaneStable, 0);
+  EXPECT_EQ(p.twist.size(), 0);
+  const double d = largestDisplacement(s, p.positions, 1);
+  EXPECT_GT(d, 0.015);
+  EXPECT_LT(d, 0.030);
 }
 
 TEST_F(HardStatics, HingedSheetUnderAWeakCornerForceSaysItIsAMechanism) {
