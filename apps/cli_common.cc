@@ -191,7 +191,12 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
   if (!chosen.note.empty()) s.message += "; " + chosen.note;
   a.optimize = s;
   a.extraRootAttributes["archived_design"] = chosen.fallback ? chosen.label : "final";
-  const bool converged = r.status.converged() && chosen.allConverged && !chosen.fallback;
+  if (chosen.gapTolerance > 0) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", chosen.gapTolerance);
+    a.extraRootAttributes["equilibrium_gap_tolerance"] = buf;
+  }
+  const bool converged = r.status.converged() && chosen.allConverged && !chosen.fallback && !chosen.offPath;
   a.status = converged ? "converged" : (r.status.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
   return a;
 }

@@ -63,12 +63,30 @@ struct ArchivedDesign {
   // Empty when the final design re-solved from rest; otherwise what happened,
   // with numbers, for the archive's message and stderr.
   std::string note;
+  // The final design re-solved from rest along the loading path, but some
+  // pose's equilibrium there lies farther than `gapTolerance` from the
+  // optimizer's own (`gap`, m, the largest over poses and vertices): the
+  // optimizer designed an equilibrium the loaded object does not reach.
+  bool offPath = false;
+  double gap = 0.0, gapTolerance = 0.0;
 };
+
+// The loading-path equilibria of a design are "the ones the optimizer
+// designed" when no vertex of any pose lies farther than this from the
+// optimizer's own: a tenth of the optimizer's RMS error (what the design
+// claims to achieve), and never below 1e-6 of the structure's size (the
+// solvers' tolerances).
+double designedEquilibriumTolerance(double optimizerRms, double structureSize);
 
 struct DesignOptimizerResult;
 
-// Re-solves every pose from rest under the final design of `result`; when a
-// pose does not converge, tries result.fallbacks from the best objective to
+// Re-solves every pose from rest under the final design of `result`, along
+// the loading path (solver/newton.hh); when the re-solved equilibria are not
+// the optimizer's (designedEquilibriumTolerance), the design is marked
+// offPath and earlier designs (result.fallbacks, best objective first) are
+// re-solved too: the first whose RMS from rest is lower than the final
+// design's from rest is archived instead. When a pose does not converge,
+// tries result.fallbacks from the best objective to
 // the worst and then the initial design, and returns the first whose every
 // pose converges (a fallback other than the initial design must also be no
 // worse, re-solved from rest, than the initial design was on the optimizer's

@@ -629,9 +629,10 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     bool negativeBeyond = false;  // a failed step beyond lam met negative curvature
     int pathSteps = 0;            // load steps kept (jumps past critical points included)
     if (unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure) {
-      if (path && !warm && !r.converged) {
-        // The path step stopped at negative curvature: a mechanism's answer
-        // is the full load from rest, wherever its rigid motion leads.
+      if (path && !r.converged) {
+        // The path step stopped at negative curvature (or the warm start
+        // failed): a mechanism's answer is the full load from rest, wherever
+        // its rigid motion leads.
         system.setLoadFactor(1.0);
         system.setCharts(rest.charts);
         uTry = rest.u;

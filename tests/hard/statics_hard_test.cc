@@ -471,6 +471,37 @@ TEST_F(HardStatics, ImperfectColumnAboveBucklingBendsTowardsItsImperfection) {
   EXPECT_EQ(onlyPose(c.archive).stable, 1);
 }
 
+// Lateral-torsional buckling of a flat cantilever (r_t = 10 r_n, L = 0.1 m,
+// 40 edges) under a tip load in its stiff plane, twice the classical
+// critical load 4.013 sqrt(EI_y GJ) / L^2 (Timoshenko & Gere): the path
+// reports the critical point at that load divided by the pre-buckling
+// correction sqrt((1 - EI_y/EI_x)(1 - GJ/EI_x)) (Trahair), within 1%, and
+// ends laterally buckled and twisted, stable.
+TEST_F(HardStatics, FlatCantileverBucklesLaterallyAtItsClosedFormLoad) {
+  const Material m{1e7, 0.4, 1000.0};
+  const double L = 0.1, rt = 0.01, rn = 0.001;
+  const double EIy = stiffness::bendingOut(m.youngModulus, rt, rn);
+  const double EIx = stiffness::bendingIn(m.youngModulus, rt, rn);
+  const double GJ = stiffness::twisting(m.shearModulus(), rt, rn);
+  const double classic = 4.013 * std::sqrt(EIy * GJ) / (L * L);
+  const double Pcr = classic / std::sqrt((1 - EIy / EIx) * (1 - GJ / EIx));
+  Scene s = straightRod(41, L, rt, m);
+  s.radii.assign(41, Vec2(rt, rn));
+  s.normals.assign(41, Vec3::UnitZ());
+  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Twist};
+  s.poses[0].clamped.push_back({0});
+  s.poses[0].forces.push_back({40, Vec3(0, -2 * classic, 0)});
+  const RunResult run = simulate(s);
+  ASSERT_EQ(run.status, 0) << run.err;
+  const Archive a = archive();
+  const ArchivePose& p = onlyPose(a);
+  ASSERT_EQ(p.criticalPoints.rows(), 1);
+  EXPECT_NEAR(p.criticalPoints(0, 0) * 2 * classic, Pcr, 0.01 * Pcr);
+  EXPECT_EQ(p.stable, 1);
+  EXPECT_GT(p.positions.col(2).cwiseAbs().maxCoeff(), 0.01 * L) << "lateral deflection";
+  EXPECT_GT(p.twist.cwiseAbs().maxCoeff(), 0.1) << "twisted";
+}
+
 // The shallow arch under a load beyond its limit: the path reports where it
 // snapped. Loaded to 95% of that load it stays up (no critical point, a
 // stable state); to 105%, it snaps. The full load at once from rest can
