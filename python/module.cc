@@ -360,8 +360,9 @@ py::dict archiveDict(const Archive& a) {
 
 // ---- one pose's energy and derivatives at explicit states
 
-// Every call installs the state it is given: charts at the design's rest
-// frames and the load factor passed, so that nothing depends on earlier calls.
+// Every call installs the state it is given: charts at the scene design's
+// rest frames and the load factor passed, so that nothing depends on earlier
+// calls.
 class PyPoseModel {
  public:
   PyPoseModel(const PyScene& s, int pose) : scene_(std::make_unique<Scene>(s.scene)) {
@@ -383,7 +384,19 @@ class PyPoseModel {
   int numParameters() const { return design_.numParameters(); }
   Eigen::VectorXd designVector() const { return design_.toVector(); }
 
-  Eigen::VectorXd restState(const std::optional<Eigen::VectorXd>& p) const { return sys().restDofs(design(p)); }
+  // The rest configuration of design p in this model's coordinates: twists
+  // are measured from the scene design's rest frames, so a design with
+  // another rest shape has non-zero twist unknowns at its rest state.
+  Eigen::VectorXd restState(const std::optional<Eigen::VectorXd>& p) {
+    const Design d = design(p);
+    installState(0.0);
+    Eigen::VectorXd u = sys().restDofs(d);
+    if (sys().hasTwist() && p) {
+      const Eigen::VectorXd offset = sys().materialTwists(u, d);
+      for (int e = 0; e < offset.size(); ++e) u[sys().thetaDof(e)] -= offset[e];
+    }
+    return u;
+  }
 
   double energy(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) {
     const Design d = prepare(u, p, loadFactor);
@@ -472,14 +485,20 @@ class PyPoseModel {
     d.fromVector(*p);
     return d;
   }
+  // Reference-frame charts at the rest frames of the scene's design, whatever
+  // p is: the twist unknowns are then coordinates independent of p, and
+  // design derivatives are derivatives at fixed u.
+  void installState(double loadFactor) {
+    PoseState st = sys().restState(design_);
+    st.loadFactor = loadFactor;
+    sys().setState(st);
+    sys().setLoadFactor(loadFactor);
+  }
   Design prepare(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) {
     if (u.size() != numDofs())
       throw py::value_error("u has " + std::to_string(u.size()) + " entries, expected " + std::to_string(numDofs()));
     Design d = design(p);
-    PoseState st = sys().restState(d);
-    st.loadFactor = loadFactor;
-    sys().setState(st);
-    sys().setLoadFactor(loadFactor);
+    installState(loadFactor);
     return d;
   }
 

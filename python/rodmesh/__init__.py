@@ -261,8 +261,9 @@ class PoseModel:
 
     Every method takes the state explicitly: u, optionally p (default: the
     scene's design) and load_factor (1: the pose as given; it scales loads and
-    prescribed displacements). Reference frames are those of the design's rest
-    shape, so results depend only on the arguments.
+    prescribed displacements). Twists are measured from the rest frames of
+    the scene's design whatever p is (fixed coordinates, so that design
+    derivatives are taken at fixed u); results depend only on the arguments.
     """
 
     def __init__(self, scene, pose=0):
@@ -297,7 +298,8 @@ class PoseModel:
         return self._impl.design_vector()
 
     def rest_state(self, p=None):
-        """u of the rest configuration of design p."""
+        """u of the rest configuration of design p (twist unknowns are zero for
+        the scene's design only)."""
         return self._impl.rest_state(p)
 
     def energy(self, u, p=None, load_factor=1.0):

@@ -63,8 +63,10 @@ def assert_same_result(a, b, exact=True):
                 cmp(x, y)
         assert (p.rms_error is None) == (q.rms_error is None)
     assert sorted(a.history) == sorted(b.history)
+    # Timings, and what the monitor thread had confirmed by each iteration,
+    # depend on the machine's load.
     for key in a.history:
-        if key not in ("time_s", "phase"):
+        if key not in ("time_s", "phase", "best_rms_error"):
             cmp(np.asarray(a.history[key], float), np.asarray(b.history[key], float))
 
 
@@ -139,8 +141,8 @@ def test_simulate_options_are_the_cli_flags(tmp_path):
     with pytest.raises(TypeError):
         rodmesh.simulate(s, no_such_option=1)
     out = tmp_path / "cli.h5"
-    cli("simulate", CANTILEVER, "-o", str(out), "--max-iter", "2")
-    r = rodmesh.simulate(s, max_iter=2)
+    cli("simulate", CANTILEVER, "-o", str(out), "--max-iter", "1")
+    r = rodmesh.simulate(s, max_iter=1)
     assert r.status != "converged"
     assert_same_result(r, rodmesh.load_archive(out))
 
@@ -299,13 +301,14 @@ def test_pose_model_derivatives(pose):
         if info["kind"][i] == "position" and not info["planar"]:
             assert u0[i] == pytest.approx(rest[info["vertex"][i], info["coordinate"][i]])
     rng = np.random.default_rng(1)
-    u = u0 + 1e-3 * rng.standard_normal(m.n_dofs)
+    u = u0 + 1e-4 * rng.standard_normal(m.n_dofs)
     d = rng.standard_normal(m.n_dofs)
-    fd_check(lambda x: np.array([m.energy(x)]), lambda x: m.gradient(x)[None, :], u, d)
+    d *= 1e-3 / np.linalg.norm(d)
+    fd_check(lambda x: np.array([m.energy(x)]), lambda x: m.gradient(x)[None, :], u, d, steps=(1.0, 0.1, 0.01))
     H = m.hessian(u)
     assert scipy.sparse.issparse(H) and H.shape == (m.n_dofs, m.n_dofs)
     assert abs(H - H.T).max() <= 1e-12 * abs(H).max()  # both triangles
-    fd_check(m.gradient, m.hessian, u, d)
+    fd_check(m.gradient, m.hessian, u, d, steps=(1.0, 0.1, 0.01))
     # dF/dp against differences of the gradient in the design.
     p = m.design_vector()
     J = m.design_jacobian(u)
