@@ -318,6 +318,8 @@ class PoseModel:
         """dF/dp = d2E/du dp (n_dofs x n_parameters) as a scipy.sparse matrix."""
         return self._impl.design_jacobian(_np.asarray(u, float), p, load_factor)
 
+    design_derivatives = design_jacobian
+
     def energy_design_gradient(self, u, p=None, load_factor=1.0):
         """dE/dp (n_parameters)."""
         return self._impl.energy_design_gradient(_np.asarray(u, float), p, load_factor)
