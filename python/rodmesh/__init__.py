@@ -238,7 +238,25 @@ def optimize(scene, method=None, callback=None, quiet=True, **options):
     s = _scene_of(scene)
     if method is not None:
         options["method"] = method
+    if not quiet:
+        callback = _printing(callback)
     return Result(_rodmesh.optimize(s._impl, options, callback, quiet))
+
+
+def _printing(callback):
+    """Prints a progress line per iteration (quiet=False), then calls `callback`."""
+    import sys
+
+    def wrapped(info):
+        best = ""
+        if info["best_iteration"] >= 0:
+            best = "  best %.4f mm @%d" % (info["best_rms_error"] * 1e3, info["best_iteration"])
+        print("iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  viol %.2e N  |g| %.2e  step %.2e  %.2f s%s" % (
+            info["iteration"], info["level"], info["phase"], info["objective"], info["rms_error"] * 1e3,
+            info["constraint_violation"], info["gradient_norm"], info["step"], info["time_s"], best),
+            file=sys.stderr, flush=True)
+        return None if callback is None else callback(info)
+    return wrapped
 
 
 def load_archive(path):

@@ -316,8 +316,14 @@ def test_pose_model_derivatives(pose):
     dp = np.zeros_like(p)
     dp[3 * rest.shape[0]:] = 1e-4 * rng.standard_normal(2 * rest.shape[0])  # radii
     dp[: 3 * rest.shape[0]] = 1e-3 * rng.standard_normal(3 * rest.shape[0])  # rest shape
-    fd_check(lambda q: m.gradient(u, q), lambda q: m.design_jacobian(u, q), p, dp / np.linalg.norm(dp) * 1e-3,
-             steps=(1.0, 0.1, 0.01))
+    dp *= 1e-3 / np.linalg.norm(dp)
+    fd_check(lambda q: m.gradient(u, q), lambda q: m.design_jacobian(u, q), p, dp, steps=(1.0, 0.1, 0.01))
+    fd_check(lambda q: np.array([m.energy(u, q)]), lambda q: m.energy_design_gradient(u, q)[None, :], p, dp,
+             steps=(0.1, 0.01, 0.001))
+    # The rest state of another design is at rest: no force without loads.
+    assert np.linalg.norm(m.gradient(m.rest_state(p + dp), p + dp, load_factor=0)) < 1e-9 * np.linalg.norm(
+        m.gradient(u))
+    np.testing.assert_allclose(m.material_twists(m.rest_state(p + dp), p + dp), 0, atol=1e-12)
     # No hidden state: the same call gives the same answer after others.
     e = m.energy(u)
     m.hessian(u + 0.01)
