@@ -524,6 +524,7 @@ PYBIND11_MODULE(_rodmesh, m) {
     }
   });
   m.attr("version") = cli::versionString();
+  m.attr("python_executable") = RODMESH_PYTHON_EXECUTABLE;
 #ifdef RODMESH_HAVE_NLP
   m.attr("have_sand") = true;
 #else

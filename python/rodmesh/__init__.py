@@ -12,9 +12,23 @@ See docs/python.md for the whole API.
 import json as _json
 import os as _os
 
-import numpy as _np
-
 from . import _rodmesh
+
+try:
+    import numpy as _numpy_module
+except ImportError:  # `import rodmesh` works without numpy; results need it
+    _numpy_module = None
+
+
+class _NumpyProxy:
+    def __getattr__(self, name):
+        if _numpy_module is None:
+            raise ImportError("rodmesh needs numpy for its results (Debian: python3-numpy; "
+                              "the build's Python is %s)" % _rodmesh.python_executable)
+        return getattr(_numpy_module, name)
+
+
+_np = _NumpyProxy()
 
 __all__ = [
     "Scene",
