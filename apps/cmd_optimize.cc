@@ -20,6 +20,7 @@
 
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
+#include "apps/run.hh"
 #include "io/interrupt.hh"
 #include "model/design_space.hh"
 #include "solver/design_fallback.hh"
@@ -32,66 +33,6 @@
 namespace rodmesh::cli {
 
 namespace {
-
-struct OptimizeOptions {
-  std::string scene;
-  std::string output;
-  std::string method;  // sand (default when built) or reduced
-  std::string schedule;  // default: levels for sand, paper for reduced (docs/optimization.md)
-  std::string designDerivatives;  // exact (default), fd or fd-resolve; --method reduced only
-  std::vector<std::string> ipopt;
-  DesignOptimizerOptions optimizer;
-};
-
-bool sandAvailable() {
-#ifdef RODMESH_HAVE_NLP
-  return true;
-#else
-  return false;
-#endif
-}
-
-void checkOptions(OptimizeOptions& o) {
-  if (o.method.empty()) o.method = sandAvailable() ? "sand" : "reduced";
-  if (o.method == "sand" && !sandAvailable())
-    throw InputError("optimize: --method sand: the Ipopt optimizer is not part of this build; use --method reduced");
-  if (!o.designDerivatives.empty() && o.designDerivatives != "exact" && o.method != "reduced")
-    throw InputError("optimize: --design-derivatives " + o.designDerivatives +
-                     " applies to --method reduced only (--method " + o.method + " uses exact derivatives)");
-  o.optimizer.designDerivatives = o.designDerivatives == "fd"           ? DesignDerivatives::FiniteDifference
-                                  : o.designDerivatives == "fd-resolve" ? DesignDerivatives::FiniteDifferenceResolve
-                                                                        : DesignDerivatives::Exact;
-  if (!o.ipopt.empty() && o.method != "sand")
-    throw InputError("optimize: --ipopt applies to --method sand only, got --ipopt " + o.ipopt.front());
-  if (o.optimizer.maxIterations < 0)
-    throw InputError("optimize: --max-iter must be non-negative, got " + std::to_string(o.optimizer.maxIterations));
-  if (!(o.optimizer.timeLimit >= 0) || !std::isfinite(o.optimizer.timeLimit))
-    throw InputError("optimize: --time-limit must be a non-negative number of seconds, got " +
-                     std::to_string(o.optimizer.timeLimit));
-  if (!(o.optimizer.tolerance > 0 && o.optimizer.tolerance < 1))
-    throw InputError("optimize: --tol must lie in (0, 1), got " + std::to_string(o.optimizer.tolerance));
-  if (o.optimizer.threads < 1 || o.optimizer.threads > 256)
-    throw InputError("optimize: --threads must lie in [1, 256], got " + std::to_string(o.optimizer.threads));
-  for (const std::string& kv : o.ipopt) {
-    const std::size_t eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0)
-      throw InputError("optimize: --ipopt takes KEY=VALUE, got '" + kv + "'");
-#ifdef RODMESH_HAVE_NLP
-    if (std::string why = checkIpoptOption(kv.substr(0, eq), kv.substr(eq + 1)); !why.empty())
-      throw InputError("optimize: --ipopt " + kv + ": " + why);
-#endif
-  }
-#ifdef RODMESH_HAVE_NLP
-  if (o.method == "sand")
-    if (std::string why = checkIpoptOptionsFile(); !why.empty()) throw InputError("optimize: " + why);
-#endif
-  if (o.schedule.empty()) o.schedule = o.method == "sand" ? "levels" : "paper";
-  o.optimizer.schedule = o.schedule == "joint"        ? Schedule::Joint
-                         : o.schedule == "levels"     ? Schedule::Levels
-                         : o.schedule == "multilevel" ? Schedule::Multilevel
-                                                      : Schedule::Paper;
-  if (std::string why = o.optimizer.isValid(); !why.empty()) throw InputError("optimize: " + why);
-}
 
 // Keeps --time-limit, SIGINT and SIGTERM when the optimizer cannot answer
 // them itself: it polls its limits between iterations, and one iteration can
@@ -235,7 +176,7 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
   c.app = app;
   c.run = [opts, app, &global]() -> int {
     OptimizeOptions& o = *opts;
-    checkOptions(o);
+    checkOptimizeOptions(o);
     checkOutputPath(o.output, "-o");
     const Scene scene = readSceneFile(o.scene);
     validateForOptimize(scene);
@@ -321,56 +262,8 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                      it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.gradientNorm, it.step,
                      formatSeconds(it.elapsed).c_str(), best);
     };
-    DesignOptimizerResult r;
-#ifdef RODMESH_HAVE_NLP
-    if (o.method == "sand") {
-      SandOptions so;
-      so.optimizer = o.optimizer;
-      for (const std::string& kv : o.ipopt) {
-        const std::size_t eq = kv.find('=');
-        so.ipopt.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
-      }
-      r = optimizeSand(model, space, so, progress);
-    } else {
-      r = optimizeReduced(model, space, o.optimizer, progress);
-    }
-#else
-    r = optimizeReduced(model, space, o.optimizer, progress);
-#endif
-    if (!quiet) {
-      std::cerr << "optimizer: " << outcomeName(r.status.outcome) << " (" << r.status.message << "), " << r.iterations
-                << " iterations, " << r.evaluations << " evaluations, " << formatSeconds(r.timeSeconds) << "\n";
-      std::fprintf(stderr, "time: %.2f s in model evaluations, %.2f s in the optimizer%s; peak memory %.1f MiB\n",
-                   r.evaluationSeconds, r.solverSeconds, o.method == "sand" ? " (Ipopt, MUMPS)" : "",
-                   static_cast<double>(r.peakMemoryBytes) / (1024.0 * 1024.0));
-    }
-
-    // Never report a design from the optimizer's own equilibria: re-solve
-    // every pose from scratch (Newton from rest) under the final design or,
-    // when a pose cannot be, under the best earlier design that can
-    // (solver/design_fallback.hh).
-    const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, o.optimizer.newton);
-    if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
-    Archive a = optimizeArchive(scene, model, space, r, chosen, o.method);
-    a.version = versionString();
-    if (o.method == "reduced")
-      a.extraRootAttributes["design_derivatives"] = designDerivativesName(o.optimizer.designDerivatives);
-    if (!quiet) {
-      for (std::size_t p = 0; p < a.poses.size(); ++p) {
-        const ArchivePose& ap = a.poses[p];
-        const double initialRms =
-            ap.initialPositions.rows() > 0 && ap.target.rows() == ap.initialPositions.rows()
-                ? std::sqrt((ap.initialPositions - ap.target).squaredNorm() / static_cast<double>(ap.target.rows()))
-                : 0.0;
-        std::fprintf(stderr, "pose %zu '%s': re-solved from rest under %s: %s, RMS %.4f mm (initial design %.4f mm)", p,
-                     ap.name.c_str(), chosen.label.c_str(), ap.status.c_str(), ap.rmsError.value_or(0.0) * 1e3,
-                     initialRms * 1e3);
-        if (ap.equilibriumGap) std::fprintf(stderr, ", gap to the optimizer's equilibrium %.3e m", *ap.equilibriumGap);
-        std::cerr << "\n";
-        const NewtonReport& rep = chosen.simulation.poses[p].report;
-        if (!rep.converged) std::cerr << "  reason: " << rep.message << "\n";
-      }
-    }
+    OptimizeRun run = runOptimize(scene, model, space, o, progress, quiet);
+    Archive& a = run.archive;
     const bool converged = a.status == "converged";
     const std::optional<double> rms = overallRmsError(a);
     if (!watchdog.claimArchive())
@@ -379,7 +272,7 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     uninstallInterruptFlag();
     if (!quiet) {
       std::fprintf(stderr, "RMS error %.4f mm (initial design %.4f mm, %.1fx lower)\n", rms.value_or(0.0) * 1e3,
-                   r.initialRms * 1e3, rms && *rms > 0 ? r.initialRms / *rms : 0.0);
+                   run.initialRms * 1e3, rms && *rms > 0 ? run.initialRms / *rms : 0.0);
       std::cerr << "wrote " << o.output << " (" << a.status << ")\n";
     }
     return converged ? kExitDone : kExitNotConverged;

@@ -5,10 +5,6 @@
 #include <iostream>
 #include <vector>
 
-namespace rodmesh::cli {
-const char* versionString() { return "0.1.0"; }
-}  // namespace rodmesh::cli
-
 int main(int argc, char** argv) {
   using namespace rodmesh::cli;
   CLI::App app{"rodmesh: design of 3D-printable flexible rod meshes"};

@@ -9,6 +9,8 @@ packages=(
   libeigen3-dev coinor-libipopt-dev libcgal-dev libhdf5-dev
   nlohmann-json3-dev libcli11-dev libgtest-dev libsuitesparse-dev
   python3-numpy python3-h5py hdf5-tools
+  # the Python package (python/, tests/python)
+  pybind11-dev python3-dev python3-scipy python3-pytest
   # scripts/render.py; tests/cli/vtk_check.py reads .vtp files with VTK's own reader
   python3-matplotlib python3-vtk9
   # Optimised BLAS for MUMPS's dense frontal factorizations inside Ipopt

@@ -1,0 +1,80 @@
+// The work of `rodmesh simulate` and `rodmesh optimize` without the command
+// line: option structs, their checks, and runs that return the archive the
+// CLI writes. apps/cmd_*.cc map flags onto these; the Python module
+// (python/) maps keyword arguments onto them, so both share one code path.
+#pragma once
+
+#include "io/archive.hh"
+#include "model/design_space.hh"
+#include "model/scene.hh"
+#include "solver/design_optimizer.hh"
+#include "solver/dynamics.hh"
+#include "solver/equilibrium.hh"
+#include "solver/newton.hh"
+#include "solver/relaxation.hh"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rodmesh::cli {
+
+// The version string stored in archives.
+const char* versionString();
+
+// ---- simulate (apps/run_simulate.cc)
+
+struct SimulateOptions {
+  std::string scene;
+  std::string output;
+  std::string staticSolver = "newton";
+  NewtonOptions newton;
+  RelaxationOptions relaxation;
+  bool dynamic = false;
+  double duration = 0.0;
+  double fps = 30.0;
+  std::optional<double> ramp;  // s; default: see rampFor
+  double timeLimit = 0.0;      // s per pose; 0: none
+  DynamicsOptions dynamics;
+};
+
+// Applies the flags' interplay (--tol and --max-iter reach the relaxation and
+// dynamic solvers, --time-limit every solver) and checks every value; throws
+// InputError with the CLI's message. `given(flag)`: whether the flag (e.g.
+// "--max-iter") was given.
+void resolveSimulateOptions(SimulateOptions& o, const std::function<bool(const char*)>& given);
+
+// Solves every pose of `scene` (options resolved) and returns the archive
+// `rodmesh simulate` writes; progress lines on stderr unless `quiet`.
+Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet);
+
+// ---- optimize (apps/run_optimize.cc)
+
+struct OptimizeOptions {
+  std::string scene;
+  std::string output;
+  std::string method;  // sand (default when built) or reduced
+  std::string schedule;  // default: levels for sand, paper for reduced (docs/optimization.md)
+  std::string designDerivatives;  // exact (default), fd or fd-resolve; --method reduced only
+  std::vector<std::string> ipopt;
+  DesignOptimizerOptions optimizer;
+};
+
+// Fills the defaults that depend on the method (method, schedule) and checks
+// every option; throws InputError with the CLI's message.
+void checkOptimizeOptions(OptimizeOptions& o);
+
+struct OptimizeRun {
+  Archive archive;          // what `rodmesh optimize` writes
+  double initialRms = 0.0;  // m, RMS error of the initial design
+};
+
+// Runs the optimizer (options checked), re-solves every pose from rest under
+// the design it returns (or the best earlier one that re-solves) and builds
+// the archive. `progress` is called once per iteration on the calling thread;
+// o.optimizer.stopRequested stops the run with the best design kept.
+OptimizeRun runOptimize(const Scene& scene, SceneModel& model, const DesignSpace& space, OptimizeOptions& o,
+                        const DesignProgress& progress, bool quiet);
+
+}  // namespace rodmesh::cli
