@@ -296,6 +296,10 @@ py::dict archiveDict(const Archive& a) {
     q["initial_positions"] =
         p.initialPositions.rows() ? py::object(py::cast(RowMat(p.initialPositions))) : py::none();
     q["equilibrium_gap"] = p.equilibriumGap ? py::object(py::float_(*p.equilibriumGap)) : py::none();
+    q["stable"] = p.stable >= 0 ? py::object(py::bool_(p.stable == 1)) : py::none();
+    q["out_of_plane_stable"] = p.outOfPlaneStable >= 0 ? py::object(py::bool_(p.outOfPlaneStable == 1)) : py::none();
+    q["smallest_eigenvalue"] = p.smallestEigenvalue ? py::object(py::float_(*p.smallestEigenvalue)) : py::none();
+    q["critical_points"] = py::cast(RowMat(p.criticalPoints));
     poses.append(q);
   }
   d["poses"] = poses;

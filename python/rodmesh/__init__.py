@@ -111,8 +111,12 @@ class Scene:
 class PoseResult:
     """One pose of a result: positions (V x 3), twist (E, or None without twist),
     target (V x 3 or None), residual_norm (N), rms_error (m or None), status,
-    iterations, time_s; optimize only: initial_positions (the equilibrium
-    under the initial design) and equilibrium_gap (m)."""
+    iterations, time_s; stable (the archived state is a stable equilibrium, or
+    None when unknown), smallest_eigenvalue (N/m), critical_points (K x 3: load
+    factor, smallest eigenvalue N/m, jump m, per critical point the loading path
+    passed), out_of_plane_stable (planar solves); optimize only:
+    initial_positions (the equilibrium under the initial design) and
+    equilibrium_gap (m)."""
 
     def __init__(self, d):
         self.__dict__.update(d)

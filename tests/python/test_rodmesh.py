@@ -125,6 +125,10 @@ def test_simulate_matches_the_cli_archive(tmp_path):
     assert p.twist.shape == (10,)
     assert p.positions[10, 2] < -1e-3  # the tip load bends it down
     assert p.residual_norm < 1e-8
+    # A stable equilibrium with a positive smallest stiffness, no critical point on its loading path.
+    assert p.stable is True
+    assert p.smallest_eigenvalue > 0
+    assert p.critical_points.shape == (0, 3)
     # Result.save writes what the CLI writes: the CLI reads it back.
     saved = tmp_path / "py.h5"
     r.save(saved)
