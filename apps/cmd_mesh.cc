@@ -241,6 +241,7 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
          "--fix-box", o->fixBox,
          "fix rod vertices whose rest position lies in the box XMIN YMIN ZMIN XMAX YMAX ZMAX (metres, repeatable)")
       ->expected(6)
+      ->check(realNumberIn({-limits::kMaxCoordinate, limits::kMaxCoordinate, false, false, "m"}))
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app->add_option("--fix-vertices", o->fixVerticesFile,
                   "file of zero-based surface vertex indices; the nearest rod vertex of each is fixed");

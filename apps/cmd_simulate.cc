@@ -10,6 +10,7 @@
 
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
+#include "apps/flag_checks.hh"
 #include "solver/dynamics.hh"
 #include "solver/equilibrium.hh"
 #include "solver/mass.hh"
@@ -115,21 +116,29 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       ->capture_default_str();
   app->add_option("--tol", opts->newton.tolerance,
                   "force residual tolerance, relative to the load scale (static solve; with --dynamic, per time step)")
+      ->check(realNumberIn(kSimulateTolRange))
       ->capture_default_str();
   app->add_option(
          "--max-iter", opts->newton.maxIterations,
          "Newton iterations per load step (relaxation: iterations; --dynamic: Newton iterations per time step)")
+      ->check(wholeNumberIn(1, kMaxRelaxIter))
       ->capture_default_str();
   app->add_option("--time-limit", opts->timeLimit,
-                  "wall-clock seconds per pose, after which the solve stops with what it reached (default: none)");
+                  "wall-clock seconds per pose, after which the solve stops with what it reached (default: none)")
+      ->check(realNumberIn(kPositiveSecondsRange));
   app->add_flag("--dynamic", opts->dynamic, "simulate the motion from rest (backward Euler, adaptive steps)");
-  app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)");
-  app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")->capture_default_str();
+  app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)")
+      ->check(realNumberIn(kPositiveSecondsRange));
+  app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")
+      ->check(realNumberIn(kFpsRange))
+      ->capture_default_str();
   app->add_option("--max-step", opts->dynamics.maxStep, "largest time step in seconds (--dynamic)")
+      ->check(realNumberIn(kPositiveSecondsRange))
       ->capture_default_str();
   app->add_option("--ramp", opts->ramp,
                   "seconds over which loads and prescribed positions of held vertices grow from zero (--dynamic; "
-                  "default 0, or a tenth of the duration when a held vertex is prescribed away from rest)");
+                  "default 0, or a tenth of the duration when a held vertex is prescribed away from rest)")
+      ->check(realNumberIn(kSecondsRange));
 
   Command c;
   c.app = app;
@@ -154,7 +163,7 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       }
     }
     checkOptions(o, *app);
-    checkOutputPath(o.output, "-o");
+    checkOutputPath(o.output, "-o", {o.scene});
     const Scene scene = readSceneFile(o.scene);
     const bool quiet = global.quiet;
     if (!quiet)
@@ -252,7 +261,14 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       for (int p = 0; p < model.numPoses(); ++p) {
         PoseSystem& sys = model.pose(p);
         Eigen::VectorXd u = sys.restDofs(design);
-        const RelaxationReport rep = relaxEquilibrium(sys, design, u, o.relaxation);
+        RelaxationOptions ro = o.relaxation;
+        if (!quiet)
+          ro.progress = [&](const RelaxationReport& r) {
+            std::fprintf(stderr, "pose %d '%s': %d relaxation iterations, relative residual %.2e, step %.3g, %s\n",
+                         p, scene.poses[p].name.c_str(), r.iterations, r.relativeResidual, r.finalStep,
+                         formatSeconds(r.timeSeconds).c_str());
+          };
+        const RelaxationReport rep = relaxEquilibrium(sys, design, u, ro);
         PoseSolveSummary solve;
         solve.status = rep.converged ? "converged" : "not_converged";
         solve.iterations = rep.iterations;
