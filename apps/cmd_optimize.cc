@@ -106,6 +106,11 @@ class Watchdog {
  public:
   using Clock = std::chrono::steady_clock;
   static constexpr double kGrace = 3.0;  // s
+  // After the time limit the optimizer still polishes its last designs
+  // (short Newton solves from its own states); one that runs this much past
+  // the limit is cancelled, before the watchdog's kGrace. A signal cancels
+  // at once.
+  static constexpr double kNewtonGrace = 1.0;  // s
 
   // `write(design, initial, history, message)` archives `design`.
   using Writer = std::function<void(const ConfirmedDesign& design, const ConfirmedDesign* initial,
@@ -136,8 +141,8 @@ class Watchdog {
   }
   // The main thread's archive: true if it may write it; false when the
   // watchdog is writing its own (the process is about to end).
-  // Set once the time limit passed or a signal arrived: the optimizer's
-  // Newton solves stop on it (NewtonOptions::cancel).
+  // Set kNewtonGrace after the time limit, or once a signal arrived: the
+  // optimizer's Newton solves stop on it (NewtonOptions::cancel).
   const std::atomic<bool>* limitFlag() const { return &limit_; }
   bool claimArchive() {
     int expected = 0;
@@ -154,7 +159,7 @@ class Watchdog {
       const auto now = Clock::now();
       if (!signalled && interruptRequested()) signalled = now;
       const double elapsed = std::chrono::duration<double>(now - t0_).count();
-      if (signalled || (timeLimit_ > 0 && elapsed > timeLimit_)) limit_ = true;
+      if (signalled || (timeLimit_ > 0 && elapsed > timeLimit_ + kNewtonGrace)) limit_ = true;
       const bool late = (timeLimit_ > 0 && elapsed > timeLimit_ + kGrace) ||
                         (signalled && std::chrono::duration<double>(now - *signalled).count() > kGrace);
       if (!late) continue;

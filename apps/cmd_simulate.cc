@@ -128,7 +128,7 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       ->check(realNumberIn(kPositiveSecondsRange));
   app->add_flag("--dynamic", opts->dynamic, "simulate the motion from rest (backward Euler, adaptive steps)");
   app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)")
-      ->check(realNumberIn(kPositiveSecondsRange));
+      ->check(realNumberIn(kDurationRange));
   app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")
       ->check(realNumberIn(kFpsRange))
       ->capture_default_str();

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -67,7 +68,7 @@ inline CLI::Validator wholeNumberIn(long long lo, long long hi) {
       [lo, hi, range](std::string& text) -> std::string {
         if (wholeNumberWithin(text, lo, hi)) return "";
         // Also an empty text, which CLI11 would read as 0.
-        return "must be a whole number in " + range + " (got '" + text + "')";
+        return "must be a whole number in the allowed range " + range + " (got '" + text + "')";
       },
       "INT in " + range);
 }
@@ -79,10 +80,13 @@ struct RealRange {
   std::string unit;  // "s", "m", ... (empty: none)
 
   bool contains(double v) const { return (loOpen ? v > lo : v >= lo) && (hiOpen ? v < hi : v <= hi); }
-  // "(0, 1e+09] s"
+  // "(0, 1e+09] s"; an upper end of DBL_MAX reads "inf)" (any finite number).
   std::string text() const {
     char buf[96];
-    std::snprintf(buf, sizeof buf, "%s%g, %g%s", loOpen ? "(" : "[", lo, hi, hiOpen ? ")" : "]");
+    if (hi >= std::numeric_limits<double>::max())
+      std::snprintf(buf, sizeof buf, "%s%g, inf)", loOpen ? "(" : "[", lo);
+    else
+      std::snprintf(buf, sizeof buf, "%s%g, %g%s", loOpen ? "(" : "[", lo, hi, hiOpen ? ")" : "]");
     return std::string(buf) + (unit.empty() ? "" : " " + unit);
   }
 };
@@ -108,7 +112,7 @@ inline CLI::Validator realNumberIn(const RealRange& range) {
   return CLI::Validator(
       [range](std::string& text) -> std::string {
         if (realNumberWithin(text, range)) return "";
-        return "must be a number in " + range.text() + " (got '" + asTyped(text) + "')";
+        return "must be a number in the allowed range " + range.text() + " (got '" + asTyped(text) + "')";
       },
       "NUMBER in " + range.text());
 }
@@ -117,6 +121,9 @@ inline CLI::Validator realNumberIn(const RealRange& range) {
 // "Command line"). A wall-clock second count beyond 1e9 (31 years) is a typo.
 inline const RealRange kTimeLimitRange{0.0, 1e9, false, false, "s (0: none)"};
 inline const RealRange kPositiveSecondsRange{0.0, 1e9, true, false, "s"};
+// --duration: any finite positive time; the frame count (duration x fps,
+// at most 1e6) bounds it.
+inline const RealRange kDurationRange{0.0, std::numeric_limits<double>::max(), true, false, "s"};
 inline const RealRange kSecondsRange{0.0, 1e9, false, false, "s"};
 inline const RealRange kFpsRange{0.0, 1e6, true, false, "frames per second"};
 inline const RealRange kOptimizeTolRange{0.0, 1.0, true, true, ""};
