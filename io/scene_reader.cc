@@ -140,7 +140,7 @@ void readRadiusPair(const Node& n, Vec2& r) {
   r = n.vec2();
   for (int k = 0; k < 2; ++k)
     if (!(r[k] > 0.0)) n.at(k).fail("radius must be positive, got " + fmt(r[k]));
-  for (int k = 0; k < 2; ++k) n.at(k).numberWithin(0.0, limits::kMaxRadius, "m", true);
+  for (int k = 0; k < 2; ++k) n.at(k).numberWithin(limits::kMinRadius, limits::kMaxRadius, "m");
 }
 
 // Pose names become HDF5 group names (/poses/NAME) and file names in exports:
@@ -215,8 +215,8 @@ Scene parseScene(const std::string& text, const std::string& path) {
     Node rho = m["density"];
     s.material.density = rho.number();
     if (!(s.material.density > 0)) rho.fail("density must be positive, got " + fmt(s.material.density));
-    e.numberWithin(0.0, limits::kMaxYoungModulus, "Pa", true);
-    rho.numberWithin(0.0, limits::kMaxDensity, "kg/m^3", true);
+    e.numberWithin(limits::kMinYoungModulus, limits::kMaxYoungModulus, "Pa");
+    rho.numberWithin(limits::kMinDensity, limits::kMaxDensity, "kg/m^3");
   }
 
   // Vertices.
@@ -451,7 +451,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
       if (!(v[0] > 0)) b.at(0).fail("minimum radius must be positive, got " + fmt(v[0]));
       if (!(v[1] > 0)) b.at(1).fail("maximum radius must be positive, got " + fmt(v[1]));
       if (v[0] > v[1]) b.fail("bounds with min > max: [" + fmt(v[0]) + ", " + fmt(v[1]) + "]");
-      for (int k = 0; k < 2; ++k) b.at(k).numberWithin(0.0, limits::kMaxRadius, "m", true);
+      for (int k = 0; k < 2; ++k) b.at(k).numberWithin(limits::kMinRadius, limits::kMaxRadius, "m");
       s.design.radiusMin = v[0];
       s.design.radiusMax = v[1];
       s.design.hasRadiusBounds = true;
@@ -494,9 +494,12 @@ void validateForOptimize(const Scene& s) {
   if (d.hasRadiusBounds) {
     if (!(d.radiusMin > 0)) fail("design.radius_bounds[0]", "minimum radius must be positive, got " + fmt(d.radiusMin));
     if (!(d.radiusMax > 0)) fail("design.radius_bounds[1]", "maximum radius must be positive, got " + fmt(d.radiusMax));
+    if (!(d.radiusMin >= limits::kMinRadius))
+      fail("design.radius_bounds[0]", "outside its plausible range [" + fmt(limits::kMinRadius) + ", " +
+                                          fmt(limits::kMaxRadius) + "] m, got " + fmt(d.radiusMin));
     if (!(d.radiusMax <= limits::kMaxRadius))
-      fail("design.radius_bounds[1]", "outside its plausible range (0, " + fmt(limits::kMaxRadius) + "] m, got " +
-                                          fmt(d.radiusMax));
+      fail("design.radius_bounds[1]", "outside its plausible range [" + fmt(limits::kMinRadius) + ", " +
+                                          fmt(limits::kMaxRadius) + "] m, got " + fmt(d.radiusMax));
     if (d.radiusMin > d.radiusMax)
       fail("design.radius_bounds", "bounds with min > max, got [" + fmt(d.radiusMin) + ", " + fmt(d.radiusMax) + "]");
   }

@@ -176,19 +176,22 @@ void validateGridOptions(const GridOptions& o) {
   if (estimate > 2e7)
     bad("--cells and --rod-vertices give a sheet of about " + fmt(estimate) + " vertices (limit 2e7)");
   // The plausible ranges of every scene (model/limits.hh).
-  if (!(o.material.youngModulus > 0 && o.material.youngModulus <= limits::kMaxYoungModulus))
-    bad("--young-modulus must lie in (0, " + fmt(limits::kMaxYoungModulus) + "] Pa (got " +
+  if (!(o.material.youngModulus >= limits::kMinYoungModulus && o.material.youngModulus <= limits::kMaxYoungModulus))
+    bad("--young-modulus must lie in [" + fmt(limits::kMinYoungModulus) + ", " + fmt(limits::kMaxYoungModulus) +
+        "] Pa (got " +
         fmt(o.material.youngModulus) + ")");
   if (!(o.material.poissonRatio > -1 && o.material.poissonRatio < 0.5)) bad("--poisson-ratio must lie in (-1, 0.5)");
-  if (!(o.material.density > 0 && o.material.density <= limits::kMaxDensity))
-    bad("--material-density must lie in (0, " + fmt(limits::kMaxDensity) + "] kg/m^3 (got " +
+  if (!(o.material.density >= limits::kMinDensity && o.material.density <= limits::kMaxDensity))
+    bad("--material-density must lie in [" + fmt(limits::kMinDensity) + ", " + fmt(limits::kMaxDensity) +
+        "] kg/m^3 (got " +
         fmt(o.material.density) + ")");
   for (int k = 0; k < 2; ++k)
-    if (!(o.radius[k] > 0 && o.radius[k] <= limits::kMaxRadius))
-      bad("--radius values must lie in (0, " + fmt(limits::kMaxRadius) + "] m (got " + fmt(o.radius[k]) + ")");
-  if (!(o.radiusMin > 0 && o.radiusMin <= o.radiusMax && o.radiusMax <= limits::kMaxRadius))
-    bad("--radius-bounds must satisfy 0 < min <= max <= " + fmt(limits::kMaxRadius) + " m (got " + fmt(o.radiusMin) +
-        ", " + fmt(o.radiusMax) + ")");
+    if (!(o.radius[k] >= limits::kMinRadius && o.radius[k] <= limits::kMaxRadius))
+      bad("--radius values must lie in [" + fmt(limits::kMinRadius) + ", " + fmt(limits::kMaxRadius) + "] m (got " +
+          fmt(o.radius[k]) + ")");
+  if (!(o.radiusMin >= limits::kMinRadius && o.radiusMin <= o.radiusMax && o.radiusMax <= limits::kMaxRadius))
+    bad("--radius-bounds must satisfy " + fmt(limits::kMinRadius) + " <= min <= max <= " + fmt(limits::kMaxRadius) +
+        " m (got " + fmt(o.radiusMin) + ", " + fmt(o.radiusMax) + ")");
   if (o.radius.minCoeff() < o.radiusMin || o.radius.maxCoeff() > o.radiusMax)
     bad("--radius must lie within --radius-bounds");
   if (o.controlPointsPerRod < 2 || o.controlPointsPerRod > limits::kMaxControlPoints)

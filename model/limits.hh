@@ -17,11 +17,18 @@ constexpr double kMaxCoordinate = 1e6;
 // Rest edge length [m]: shorter edges are below any printer's resolution and
 // make curvatures (1/length) overflow for coordinates in range.
 constexpr double kMinEdgeLength = 1e-8;
-// Cross-section radius, initial or bound [m]: (0, kMaxRadius].
+// Cross-section radius, initial or bound [m]: [kMinRadius, kMaxRadius]. Below
+// a micrometre the stiffnesses (radius to the fourth power) vanish against
+// any load.
+constexpr double kMinRadius = 1e-6;
 constexpr double kMaxRadius = 100.0;
-// Young's modulus [Pa]: (0, kMaxYoungModulus] (diamond is about 1.2e12).
+// Young's modulus [Pa]: [kMinYoungModulus, kMaxYoungModulus] (soft gels are
+// about 1e3, diamond about 1.2e12).
+constexpr double kMinYoungModulus = 1.0;
 constexpr double kMaxYoungModulus = 1e13;
-// Density [kg/m^3]: (0, kMaxDensity] (osmium is about 2.3e4).
+// Density [kg/m^3]: [kMinDensity, kMaxDensity] (aerogels are about 1,
+// osmium about 2.3e4).
+constexpr double kMinDensity = 1e-3;
 constexpr double kMaxDensity = 1e5;
 // Each gravity component [m/s^2]: [-kMaxGravity, kMaxGravity].
 constexpr double kMaxGravity = 1e4;

@@ -109,6 +109,10 @@ TEST_F(RobustCli, ImplausibleMaterialIsExit2ForOptimizeAndSimulate) {
                      {"material.density", "9.2e+18", "kg/m^3"}, true);
   expectSceneRefused([](nlohmann::json& j) { j["material"]["young_modulus"] = 1e20; },
                      {"material.young_modulus", "1e+20", "Pa"}, true);
+  expectSceneRefused([](nlohmann::json& j) { j["material"]["young_modulus"] = 1e-300; },
+                     {"material.young_modulus", "1e-300", "Pa"}, true);
+  expectSceneRefused([](nlohmann::json& j) { j["material"]["density"] = 1e-300; },
+                     {"material.density", "1e-300", "kg/m^3"}, true);
 }
 
 TEST_F(RobustCli, ImplausibleRadiiAndBoundsAreExit2) {
@@ -121,6 +125,14 @@ TEST_F(RobustCli, ImplausibleRadiiAndBoundsAreExit2) {
   expectSceneRefused([](nlohmann::json& j) { j["design"]["radius_bounds"] = {0.001, 1e101}; },
                      {"design.radius_bounds[1]", "1e+101"}, false);
   expectSceneRefused([](nlohmann::json& j) { j["radius"] = {0.002, 101.0}; }, {"radius[1]", "101"}, true);
+  expectSceneRefused(
+      [](nlohmann::json& j) {
+        j["radius"] = {1e-300, 1e-300};
+        j["design"].erase("radius_bounds");
+      },
+      {"radius[0]", "1e-300"}, true);
+  expectSceneRefused([](nlohmann::json& j) { j["design"]["radius_bounds"] = {1e-9, 0.004}; },
+                     {"design.radius_bounds[0]", "1e-09"}, false);
 }
 
 TEST_F(RobustCli, ImplausibleLoadsGravityPositionsAndWeightsAreExit2) {
