@@ -1,5 +1,6 @@
 #include "apps/cli_common.hh"
 
+#include "solver/bfgs.hh"
 #include "solver/equilibrium.hh"
 
 #include <algorithm>
@@ -8,16 +9,97 @@
 #include <iostream>
 #include <sstream>
 #include <stdexcept>
+#include <cerrno>
+#include <climits>
+#include <cstring>
+#include <fcntl.h>
+#include <filesystem>
+#include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace rodmesh::cli {
 
-void checkOutputPath(const std::string& path, const std::string& flag) {
+void checkOutputPath(const std::string& path, const std::string& flag, const std::vector<std::string>& inputs) {
+  auto bad = [&](const std::string& why) { throw InputError(flag + " " + printableText(path, 100) + ": " + why); };
   if (path.empty()) throw InputError(flag + ": output path is empty");
-  std::string dir = ".";
-  auto slash = path.find_last_of('/');
-  if (slash != std::string::npos) dir = slash == 0 ? "/" : path.substr(0, slash);
-  if (access(dir.c_str(), W_OK) != 0) throw InputError(flag + " " + path + ": directory " + dir + " does not exist or is not writable");
+  if (path.find('\0') != std::string::npos) bad("the path contains a NUL byte");
+  if (path.back() == '/') bad("names a directory, not a file");
+  const std::size_t slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  const std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
+  if (base == "." || base == "..") bad("names a directory, not a file");
+  if (path.size() >= PATH_MAX) bad("the path is " + std::to_string(path.size()) + " bytes long; at most " +
+                                   std::to_string(PATH_MAX - 1) + " are allowed");
+  struct stat st;
+  if (::stat(path.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) bad("is a directory, not a file");
+    if (!S_ISREG(st.st_mode)) bad("exists and is not a regular file (a device, FIFO or socket); not replaced");
+    for (const std::string& in : inputs) {
+      std::error_code ec;
+      if (!in.empty() && std::filesystem::equivalent(path, in, ec) && !ec)
+        bad("is the input file " + printableText(in, 100) + "; writing the result would replace it");
+    }
+  }
+  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    bad("directory " + printableText(dir, 100) + " does not exist or is not a directory");
+  if (access(dir.c_str(), W_OK) != 0) bad("directory " + printableText(dir, 100) + " does not exist or is not writable");
+  // Every component must fit the file system's name limit, the file name
+  // with the writer's temporary suffix ".tmp.PID" (io/archive.hh) too.
+  long nameMax = ::pathconf(dir.c_str(), _PC_NAME_MAX);
+  if (nameMax <= 0) nameMax = NAME_MAX;
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const std::string tmpBase = tmp.substr(slash == std::string::npos ? 0 : slash + 1);
+  if (tmpBase.size() > static_cast<std::size_t>(nameMax))
+    bad("the file name is " + std::to_string(base.size()) + " bytes long; the file system allows " +
+        std::to_string(nameMax) + " bytes per name, " + std::to_string(tmpBase.size() - base.size()) +
+        " of them taken by the temporary suffix \".tmp.PID\" while writing");
+  for (std::size_t b = 0; b < dir.size();) {
+    std::size_t e = dir.find('/', b);
+    if (e == std::string::npos) e = dir.size();
+    if (e - b > static_cast<std::size_t>(nameMax))
+      bad("a directory name in the path is " + std::to_string(e - b) + " bytes long; the file system allows " +
+          std::to_string(nameMax));
+    b = e + 1;
+  }
+  // Whether a file can be made there at all (e.g. /proc is "writable" to
+  // root by its mode bits): an unnamed file, as the archive writer makes
+  // first, else a named one removed at once.
+#ifdef O_TMPFILE
+  const int probe = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0600);
+  if (probe >= 0) {
+    ::close(probe);
+    return;
+  }
+#endif
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) bad("cannot create a file in directory " + printableText(dir, 100) + " (" + std::strerror(errno) + ")");
+  ::close(fd);
+  ::unlink(tmp.c_str());
+}
+
+void checkOptimizeMemory(const Scene& scene, const DesignSpace& space, bool reduced) {
+  if (!reduced) return;
+  DesignPhase all;
+  all.level = space.numLevels() - 1;
+  all.radii = scene.design.radii;
+  all.restShape = scene.design.restShape;
+  const double n = space.numFree(all);
+  if (n > BfgsOptions().denseLimit) return;  // limited-memory BFGS: O(n) storage
+  const double bytes = 8.0 * n * n;
+  double available = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGESIZE));
+  struct rlimit rl;
+  if (::getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY)
+    available = std::min(available, static_cast<double>(rl.rlim_cur));
+  if (!(available > 0) || bytes <= 0.5 * available) return;
+  char why[320];
+  std::snprintf(why, sizeof why,
+                "design.control_points_per_rod: %d control points per rod give %.0f design values; --method "
+                "reduced's BFGS matrix of them needs %.1f GiB, more than half of the %.1f GiB of memory available "
+                "(use fewer control points or --method sand), got %d",
+                scene.design.controlPointsPerRod, n, bytes / (1u << 30), available / (1u << 30),
+                scene.design.controlPointsPerRod);
+  throw InputError(scene.sourcePath + ": " + why);
 }
 
 void describeModel(Archive& a, const RodNetwork& net, const EffectSet& fx, long long dofsPerPose) {

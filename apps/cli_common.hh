@@ -18,8 +18,23 @@
 
 namespace rodmesh::cli {
 
-// Throws InputError unless the directory of `path` exists and is writable.
-void checkOutputPath(const std::string& path, const std::string& flag);
+// Everything about an output path that can be known before a run (exit 2,
+// nothing written): throws InputError naming `flag`, the path and why if the
+// path is empty, names a directory (trailing '/', ".", "..", an existing
+// directory) or an existing file that is not a regular file, is one of
+// `inputs` (the same file under any name), has a name longer than the file
+// system allows (with the writer's ".tmp.PID" suffix), or lies in a
+// directory that does not exist, is not writable or cannot hold a new file
+// (probed by creating an unnamed one).
+void checkOutputPath(const std::string& path, const std::string& flag, const std::vector<std::string>& inputs = {});
+
+// optimize: the memory the design needs, checked before anything of that
+// size is allocated (exit 2): with `reduced`, the dense inverse-Hessian
+// approximation of BFGS (8 n^2 bytes for n design values up to
+// BfgsOptions::denseLimit; limited memory above) must fit in half of the
+// machine's physical memory (and of RLIMIT_AS when set). Throws InputError
+// naming design.control_points_per_rod.
+void checkOptimizeMemory(const Scene& scene, const DesignSpace& space, bool reduced);
 
 // Fills the /model part of an archive.
 void describeModel(Archive& a, const RodNetwork& net, const EffectSet& fx, long long dofsPerPose);

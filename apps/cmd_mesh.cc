@@ -83,11 +83,11 @@ const std::vector<RealFlag> kRealFlags = {{"--scale", "[1e-06, 1e+06]"},
                                           {"--tolerance", "[0, 1] x cell radius"},
                                           {"--merge", "[0, 1] x median Voronoi edge"},
                                           {"--edge-length", "(0, 100] m"},
-                                          {"--young-modulus", "(0, 1e+13] Pa"},
+                                          {"--young-modulus", "[1, 1e+13] Pa"},
                                           {"--poisson-ratio", "(-1, 0.5)"},
-                                          {"--material-density", "(0, 1e+05] kg/m^3"},
-                                          {"--radius", "(0, 100] m"},
-                                          {"--radius-bounds", "0 < MIN <= MAX <= 100 m"},
+                                          {"--material-density", "[0.001, 1e+05] kg/m^3"},
+                                          {"--radius", "[1e-06, 100] m"},
+                                          {"--radius-bounds", "1e-06 <= MIN <= MAX <= 100 m"},
                                           {"--gravity", "[-1e+04, 1e+04] m/s^2 per component"},
                                           {"--fix-box", "finite coordinates in metres"},
                                           {"--size", "[1e-06, 1e+06] m"},
@@ -241,6 +241,7 @@ Command registerMesh(CLI::App& root, const GlobalOptions& global) {
          "--fix-box", o->fixBox,
          "fix rod vertices whose rest position lies in the box XMIN YMIN ZMIN XMAX YMAX ZMAX (metres, repeatable)")
       ->expected(6)
+      ->check(realNumberIn({-limits::kMaxCoordinate, limits::kMaxCoordinate, false, false, "m"}))
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app->add_option("--fix-vertices", o->fixVerticesFile,
                   "file of zero-based surface vertex indices; the nearest rod vertex of each is fixed");

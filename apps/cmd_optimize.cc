@@ -20,6 +20,7 @@
 
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
+#include "apps/flag_checks.hh"
 #include "apps/run.hh"
 #include "io/interrupt.hh"
 #include "model/design_space.hh"
@@ -46,6 +47,11 @@ class Watchdog {
  public:
   using Clock = std::chrono::steady_clock;
   static constexpr double kGrace = 3.0;  // s
+  // After the time limit the optimizer still polishes its last designs
+  // (short Newton solves from its own states); one that runs this much past
+  // the limit is cancelled, before the watchdog's kGrace. A signal cancels
+  // at once.
+  static constexpr double kNewtonGrace = 1.0;  // s
 
   // `write(design, initial, history, message)` archives `design`.
   using Writer = std::function<void(const ConfirmedDesign& design, const ConfirmedDesign* initial,
@@ -76,6 +82,9 @@ class Watchdog {
   }
   // The main thread's archive: true if it may write it; false when the
   // watchdog is writing its own (the process is about to end).
+  // Set kNewtonGrace after the time limit, or once a signal arrived: the
+  // optimizer's Newton solves stop on it (NewtonOptions::cancel).
+  const std::atomic<bool>* limitFlag() const { return &limit_; }
   bool claimArchive() {
     int expected = 0;
     return state_.compare_exchange_strong(expected, 1);
@@ -91,6 +100,7 @@ class Watchdog {
       const auto now = Clock::now();
       if (!signalled && interruptRequested()) signalled = now;
       const double elapsed = std::chrono::duration<double>(now - t0_).count();
+      if (signalled || (timeLimit_ > 0 && elapsed > timeLimit_ + kNewtonGrace)) limit_ = true;
       const bool late = (timeLimit_ > 0 && elapsed > timeLimit_ + kGrace) ||
                         (signalled && std::chrono::duration<double>(now - *signalled).count() > kGrace);
       if (!late) continue;
@@ -135,6 +145,7 @@ class Watchdog {
   std::optional<ConfirmedDesign> best_, initial_;
   std::vector<DesignIterate> history_;
   std::atomic<int> state_{0};  // 0 running, 1 the main thread archives, 2 the watchdog archives
+  std::atomic<bool> limit_{false};
   std::thread thread_;
 };
 
@@ -151,12 +162,15 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                   "reduced-space BFGS)")
       ->check(CLI::IsMember({"sand", "reduced"}));
   app->add_option("--max-iter", opts->optimizer.maxIterations, "optimizer iterations over the whole schedule")
+      ->check(wholeNumberIn(0, kMaxOptimizeIterations))
       ->capture_default_str();
   app->add_option("--time-limit", opts->optimizer.timeLimit, "wall-clock limit in seconds (0: none)")
+      ->check(realNumberIn(kTimeLimitRange))
       ->capture_default_str();
   app->add_option("--tol", opts->optimizer.tolerance,
                   "relative tolerance; reduced: projected gradient against its value at the start of a phase; sand: "
                   "Ipopt's tol and dual_inf_tol, the objective being scaled to 1 at the start of each phase")
+      ->check(realNumberIn(kOptimizeTolRange))
       ->capture_default_str();
   app->add_option("--schedule", opts->schedule,
                   "paper (radii by levels, then rest shape and radii alternating; the default of --method reduced), "
@@ -164,6 +178,7 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                   "joint (everything at once) or multilevel (everything together, level by level)")
       ->check(CLI::IsMember({"paper", "joint", "levels", "multilevel"}));
   app->add_option("--threads", opts->optimizer.threads, "poses solved in parallel (results do not depend on it)")
+      ->check(wholeNumberIn(1, kMaxThreads))
       ->capture_default_str();
   app->add_option("--design-derivatives", opts->designDerivatives,
                   "--method reduced: exact (default: adjoint with exact dF/dp), fd (the paper's recipe: dF/dp by "
@@ -177,7 +192,7 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
   c.run = [opts, app, &global]() -> int {
     OptimizeOptions& o = *opts;
     checkOptimizeOptions(o);
-    checkOutputPath(o.output, "-o");
+    checkOutputPath(o.output, "-o", {o.scene});
     const Scene scene = readSceneFile(o.scene);
     validateForOptimize(scene);
     const bool quiet = global.quiet;
@@ -193,6 +208,7 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     }
     SceneModel& model = *modelPtr;
     const DesignSpace& space = *spacePtr;
+    checkOptimizeMemory(scene, space, o.method == "reduced");
     if (!quiet) {
       printEffects(model.effects(), model.network(), model.numPoses() > 0 ? model.pose(0).numDofs() : 0);
       std::cerr << "design: " << (scene.design.radii ? "radii " : "") << (scene.design.restShape ? "rest_shape " : "")
@@ -244,6 +260,7 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     };
     Watchdog watchdog(o.optimizer.timeLimit, watchdogWrite);
     o.optimizer.onConfirmed = [&watchdog](const ConfirmedDesign& d) { watchdog.confirmed(d); };
+    o.optimizer.newton.cancel = watchdog.limitFlag();
     auto progress = [&](const DesignIterate& it) {
       watchdog.iterate(it);
       if (quiet) return;

@@ -8,6 +8,7 @@
 
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
+#include "apps/flag_checks.hh"
 #include "apps/run.hh"
 
 namespace rodmesh::cli {
@@ -24,28 +25,36 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       ->capture_default_str();
   app->add_option("--tol", opts->newton.tolerance,
                   "force residual tolerance, relative to the load scale (static solve; with --dynamic, per time step)")
+      ->check(realNumberIn(kSimulateTolRange))
       ->capture_default_str();
   app->add_option(
          "--max-iter", opts->newton.maxIterations,
          "Newton iterations per load step (relaxation: iterations; --dynamic: Newton iterations per time step)")
+      ->check(wholeNumberIn(1, kMaxSimulateIterations))
       ->capture_default_str();
   app->add_option("--time-limit", opts->timeLimit,
-                  "wall-clock seconds per pose, after which the solve stops with what it reached (default: none)");
+                  "wall-clock seconds per pose, after which the solve stops with what it reached (default: none)")
+      ->check(realNumberIn(kPositiveSecondsRange));
   app->add_flag("--dynamic", opts->dynamic, "simulate the motion from rest (backward Euler, adaptive steps)");
-  app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)");
-  app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")->capture_default_str();
+  app->add_option("--duration", opts->duration, "simulated time in seconds (--dynamic)")
+      ->check(realNumberIn(kDurationRange));
+  app->add_option("--fps", opts->fps, "frames stored per second, t = 0 included (--dynamic)")
+      ->check(realNumberIn(kFpsRange))
+      ->capture_default_str();
   app->add_option("--max-step", opts->dynamics.maxStep, "largest time step in seconds (--dynamic)")
+      ->check(realNumberIn(kPositiveSecondsRange))
       ->capture_default_str();
   app->add_option("--ramp", opts->ramp,
                   "seconds over which loads and prescribed positions of held vertices grow from zero (--dynamic; "
-                  "default 0, or a tenth of the duration when a held vertex is prescribed away from rest)");
+                  "default 0, or a tenth of the duration when a held vertex is prescribed away from rest)")
+      ->check(realNumberIn(kSecondsRange));
 
   Command c;
   c.app = app;
   c.run = [opts, app, &global]() -> int {
     SimulateOptions& o = *opts;
     resolveSimulateOptions(o, [&](const char* flag) { return app->count(flag) > 0; });
-    checkOutputPath(o.output, "-o");
+    checkOutputPath(o.output, "-o", {o.scene});
     const Scene scene = readSceneFile(o.scene);
     const bool quiet = global.quiet;
     if (!quiet)

@@ -9,11 +9,19 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
 namespace rodmesh::cli {
+
+// A value as the user typed it: main() passes "-inf" and "-nan" on with a
+// leading space so that CLI11 takes them for values, not flags.
+inline std::string asTyped(const std::string& text) {
+  return !text.empty() && text[0] == ' ' ? text.substr(1) : text;
+}
 
 // A flag taking real numbers and what it allows, for messages ("[1e-06, 1e+06]").
 struct RealFlag {
@@ -35,7 +43,7 @@ inline void requireFiniteNumbers(CLI::App& app, const std::vector<RealFlag>& fla
       const double v = std::strtod(raw.c_str(), &end);
       if (end == raw.c_str() || *end != '\0') continue;
       if (!std::isfinite(v))
-        throw InputError(f.flag + ": '" + raw + "' is not a finite number (allowed: " + f.allowed + ")");
+        throw InputError(f.flag + ": '" + asTyped(raw) + "' is not a finite number (allowed: " + f.allowed + ")");
     }
   }
 }
@@ -59,9 +67,71 @@ inline CLI::Validator wholeNumberIn(long long lo, long long hi) {
   return CLI::Validator(
       [lo, hi, range](std::string& text) -> std::string {
         if (wholeNumberWithin(text, lo, hi)) return "";
-        return "must be a whole number in " + range + " (got '" + text + "')";
+        // Also an empty text, which CLI11 would read as 0.
+        return "must be a whole number in the allowed range " + range + " (got '" + text + "')";
       },
       "INT in " + range);
 }
+
+// The allowed range of a real-valued flag: [lo, hi], either end open.
+struct RealRange {
+  double lo = 0.0, hi = 0.0;
+  bool loOpen = false, hiOpen = false;
+  std::string unit;  // "s", "m", ... (empty: none)
+
+  bool contains(double v) const { return (loOpen ? v > lo : v >= lo) && (hiOpen ? v < hi : v <= hi); }
+  // "(0, 1e+09] s"; an upper end of DBL_MAX reads "inf)" (any finite number).
+  std::string text() const {
+    char buf[96];
+    if (hi >= std::numeric_limits<double>::max())
+      std::snprintf(buf, sizeof buf, "%s%g, inf)", loOpen ? "(" : "[", lo);
+    else
+      std::snprintf(buf, sizeof buf, "%s%g, %g%s", loOpen ? "(" : "[", lo, hi, hiOpen ? ")" : "]");
+    return std::string(buf) + (unit.empty() ? "" : " " + unit);
+  }
+};
+
+// True when `text` is a whole real number (strtod reads all of it, nothing
+// before or after) within `range`; NaN and infinities are in no range.
+inline bool realNumberWithin(const std::string& text, const RealRange& range) {
+  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0]))) return false;
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size()) return false;
+  return std::isfinite(v) && range.contains(v);
+}
+
+// CLI11 validator for real-valued flags, run on the text before CLI11
+// converts it: a number in `range`, else the message (CLI11 prefixes the
+// flag) gives the range and the text as typed ("--time-limit: must be a
+// number in [0, 1e+09] s (got '-1e-9')"), never a reformatted value, and
+// CLI11 never gets to say "Could not convert". An empty text is refused too
+// (CLI11 would read it as 0).
+inline CLI::Validator realNumberIn(const RealRange& range) {
+  return CLI::Validator(
+      [range](std::string& text) -> std::string {
+        if (realNumberWithin(text, range)) return "";
+        return "must be a number in the allowed range " + range.text() + " (got '" + asTyped(text) + "')";
+      },
+      "NUMBER in " + range.text());
+}
+
+// Ranges of the solver flags of simulate and optimize (docs/formats.md,
+// "Command line"). A wall-clock second count beyond 1e9 (31 years) is a typo.
+inline const RealRange kTimeLimitRange{0.0, 1e9, false, false, "s (0: none)"};
+inline const RealRange kPositiveSecondsRange{0.0, 1e9, true, false, "s"};
+// --duration: any finite positive time; the frame count (duration x fps,
+// at most 1e6) bounds it.
+inline const RealRange kDurationRange{0.0, std::numeric_limits<double>::max(), true, false, "s"};
+inline const RealRange kSecondsRange{0.0, 1e9, false, false, "s"};
+inline const RealRange kFpsRange{0.0, 1e6, true, false, "frames per second"};
+inline const RealRange kOptimizeTolRange{0.0, 1.0, true, true, ""};
+inline const RealRange kSimulateTolRange{1e-16, 0.1, false, false, ""};
+// simulate --max-iter: at most this many (relaxation counts force
+// evaluations; Newton's own bounds are checked by simulate's option check).
+constexpr long long kMaxSimulateIterations = 100000000;
+constexpr long long kMaxOptimizeIterations = 1000000;
+constexpr long long kMaxThreads = 256;
 
 }  // namespace rodmesh::cli

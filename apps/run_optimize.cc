@@ -100,7 +100,9 @@ OptimizeRun runOptimize(const Scene& scene, SceneModel& model, const DesignSpace
   // every pose from scratch (Newton from rest) under the final design or,
   // when a pose cannot be, under the best earlier design that can
   // (solver/design_fallback.hh).
-  const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, o.optimizer.newton);
+  NewtonOptions resolve = o.optimizer.newton;
+  resolve.cancel = nullptr;  // the archived design is re-solved whatever stopped the optimizer
+  const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, resolve);
   if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
   Archive a = optimizeArchive(scene, model, space, r, chosen, o.method);
   a.version = versionString();

@@ -207,7 +207,14 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
     for (int p = 0; p < model.numPoses(); ++p) {
       PoseSystem& sys = model.pose(p);
       Eigen::VectorXd u = sys.restDofs(design);
-      const RelaxationReport rep = relaxEquilibrium(sys, design, u, o.relaxation);
+      RelaxationOptions ro = o.relaxation;
+      if (!quiet)
+        ro.progress = [&](const RelaxationReport& r) {
+          std::fprintf(stderr, "pose %d '%s': %d relaxation iterations, relative residual %.2e, step %.3g, %s\n", p,
+                       scene.poses[p].name.c_str(), r.iterations, r.relativeResidual, r.finalStep,
+                       formatSeconds(r.timeSeconds).c_str());
+        };
+      const RelaxationReport rep = relaxEquilibrium(sys, design, u, ro);
       PoseSolveSummary solve;
       solve.status = rep.converged ? "converged" : "not_converged";
       solve.iterations = rep.iterations;

@@ -1,10 +1,13 @@
 #include "io/scene_reader.hh"
 
 #include "io/json_text.hh"
+#include "model/limits.hh"
 
 #include <nlohmann/json.hpp>
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
@@ -83,6 +86,26 @@ struct Node {
     if (!j->is_array() || j->size() != 3) fail("expected an array of 3 numbers, got " + shortDump());
     return Vec3(at(0).number(), at(1).number(), at(2).number());
   }
+  // A number in [lo, hi] (its plausible range, model/limits.hh); the message
+  // gives the range, the unit and the value as written in the file.
+  double numberWithin(double lo, double hi, const char* unit, bool openLow = false) const {
+    const double v = number();
+    if (!((openLow ? v > lo : v >= lo) && v <= hi))
+      fail(std::string("outside its plausible range ") + (openLow ? "(" : "[") + fmtRange(lo) + ", " + fmtRange(hi) +
+           "] " + unit + " (docs/formats.md, \"Plausible ranges\"), got " + shortDump());
+    return v;
+  }
+  // Three numbers, each in [-bound, bound].
+  Vec3 vec3Within(double bound, const char* unit) const {
+    if (!j->is_array() || j->size() != 3) fail("expected an array of 3 numbers, got " + shortDump());
+    return Vec3(at(0).numberWithin(-bound, bound, unit), at(1).numberWithin(-bound, bound, unit),
+                at(2).numberWithin(-bound, bound, unit));
+  }
+  static std::string fmtRange(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+  }
   Vec2 vec2() const {
     if (!j->is_array() || j->size() != 2) fail("expected an array of 2 numbers, got " + shortDump());
     return Vec2(at(0).number(), at(1).number());
@@ -102,13 +125,14 @@ void warnUnknownKeys(const Node& n, std::initializer_list<const char*> known) {
     if (!k.count(it.key())) g_warnings.push_back(*n.file + ": " + withKey(n.path, it.key()) + ": unknown key ignored");
 }
 
-std::vector<Vec3> readVec3List(const Node& n, std::size_t expected, const char* what) {
+// `bound`: each coordinate in [-bound, bound] (0: any finite number, e.g. normals).
+std::vector<Vec3> readVec3List(const Node& n, std::size_t expected, const char* what, double bound = 0.0) {
   std::size_t size = n.arraySize();
   if (expected != 0 && size != expected)
     n.fail("expected " + std::to_string(expected) + " " + what + " (one per vertex), got " + std::to_string(size));
   std::vector<Vec3> out;
   out.reserve(size);
-  for (std::size_t i = 0; i < size; ++i) out.push_back(n.at(i).vec3());
+  for (std::size_t i = 0; i < size; ++i) out.push_back(bound > 0 ? n.at(i).vec3Within(bound, "m") : n.at(i).vec3());
   return out;
 }
 
@@ -116,6 +140,25 @@ void readRadiusPair(const Node& n, Vec2& r) {
   r = n.vec2();
   for (int k = 0; k < 2; ++k)
     if (!(r[k] > 0.0)) n.at(k).fail("radius must be positive, got " + fmt(r[k]));
+  for (int k = 0; k < 2; ++k) n.at(k).numberWithin(limits::kMinRadius, limits::kMaxRadius, "m");
+}
+
+// Pose names become HDF5 group names (/poses/NAME) and file names in exports:
+// no '/', not "." or "..", no control characters (a NUL would cut the name
+// short), at most 255 bytes.
+void checkPoseName(const Node& at, const std::string& name) {
+  std::string why;
+  if (name.empty()) why = "must be non-empty";
+  else if (name.find('/') != std::string::npos) why = "must contain no '/'";
+  else if (name == "." || name == "..") why = "must not be \".\" or \"..\"";
+  else if (name.size() > 255) why = "must be at most 255 bytes long";
+  else
+    for (unsigned char c : name)
+      if (c < 0x20 || c == 0x7f) {
+        why = "must contain no control characters (NUL, newline, escape ...)";
+        break;
+      }
+  if (!why.empty()) at.fail("pose name " + why + ", got " + printableText(quotedText(name), 80));
 }
 
 }  // namespace
@@ -172,10 +215,12 @@ Scene parseScene(const std::string& text, const std::string& path) {
     Node rho = m["density"];
     s.material.density = rho.number();
     if (!(s.material.density > 0)) rho.fail("density must be positive, got " + fmt(s.material.density));
+    e.numberWithin(limits::kMinYoungModulus, limits::kMaxYoungModulus, "Pa");
+    rho.numberWithin(limits::kMinDensity, limits::kMaxDensity, "kg/m^3");
   }
 
   // Vertices.
-  s.vertices = readVec3List(root["vertices"], 0, "positions");
+  s.vertices = readVec3List(root["vertices"], 0, "positions", limits::kMaxCoordinate);
   const std::size_t nv = s.vertices.size();
   if (nv < 2) root["vertices"].fail("need at least 2 vertices, got " + std::to_string(nv));
 
@@ -217,6 +262,10 @@ Scene parseScene(const std::string& text, const std::string& path) {
           vs.at(i + 1).fail("zero-length edge between vertices " + std::to_string(rod.vertices[i]) + " and " +
                             std::to_string(rod.vertices[i + 1]) + ", both at " +
                             root["vertices"].at(rod.vertices[i]).shortDump());
+        if (len < limits::kMinEdgeLength)
+          vs.at(i + 1).fail("edge between vertices " + std::to_string(rod.vertices[i]) + " and " +
+                            std::to_string(rod.vertices[i + 1]) + " is " + fmt(len) +
+                            " m long, below the plausible minimum of " + fmt(limits::kMinEdgeLength) + " m");
       }
       for (std::size_t i = 0; i < k; ++i) {
         int v = rod.vertices[i];
@@ -267,7 +316,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
     }
   }
 
-  if (root.has("gravity")) s.gravity = root["gravity"].vec3();
+  if (root.has("gravity")) s.gravity = root["gravity"].vec3Within(limits::kMaxGravity, "m/s^2");
 
   if (root.has("effects")) {
     Node ef = root["effects"];
@@ -305,8 +354,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
       warnUnknownKeys(pn, {"name", "weight", "fixed", "clamped", "forces", "twisting_moments", "target"});
       Pose pose;
       pose.name = pn.has("name") ? pn["name"].string() : "pose" + std::to_string(p);
-      if (pose.name.empty() || pose.name.find('/') != std::string::npos || pose.name == "." || pose.name == "..")
-        pn["name"].fail("pose name must be non-empty and contain no '/', got " + quotedText(pose.name));
+      if (pn.has("name")) checkPoseName(pn["name"], pose.name);
       if (!names.emplace(pose.name, p).second) {
         const std::string other = "poses[" + std::to_string(names[pose.name]) + "]";
         if (!pn.has("name"))
@@ -318,6 +366,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
         Node w = pn["weight"];
         pose.weight = w.number();
         if (pose.weight < 0) w.fail("weight must be non-negative, got " + fmt(pose.weight));
+        w.numberWithin(0.0, limits::kMaxWeight, "");
       }
       std::map<int, std::string> held;  // vertex -> where it was held
       if (pn.has("fixed")) {
@@ -328,7 +377,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
           if (!e.j->is_object()) e.fail("expected an object with key \"vertex\", got " + e.typeName());
           FixedVertex f;
           f.vertex = e["vertex"].index(nv, "vertex");
-          if (e.has("position")) f.position = e["position"].vec3();
+          if (e.has("position")) f.position = e["position"].vec3Within(limits::kMaxCoordinate, "m");
           if (held.count(f.vertex)) e["vertex"].fail("vertex " + std::to_string(f.vertex) + " is already held by " + held[f.vertex]);
           held[f.vertex] = e.path;
           pose.fixed.push_back(f);
@@ -355,7 +404,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
           if (!e.j->is_object()) e.fail("expected an object with keys \"vertex\" and \"force\", got " + e.typeName());
           PointForce f;
           f.vertex = e["vertex"].index(nv, "vertex");
-          f.force = e["force"].vec3();
+          f.force = e["force"].vec3Within(limits::kMaxForce, "N");
           pose.forces.push_back(f);
         }
       }
@@ -369,11 +418,12 @@ Scene parseScene(const std::string& text, const std::string& path) {
           m.vertex = e["vertex"].index(nv, "vertex");
           if (endCount[m.vertex] != 1 || useCount[m.vertex] != 1)
             e["vertex"].fail("vertex " + std::to_string(m.vertex) + " is not the free end of a rod; twisting moments act on free ends");
-          m.moment = e["moment"].number();
+          m.moment = e["moment"].numberWithin(-limits::kMaxMoment, limits::kMaxMoment, "N m");
           pose.twistingMoments.push_back(m);
         }
       }
-      if (pn.has("target")) pose.target = readVec3List(pn["target"], nv, "target positions");
+      if (pn.has("target"))
+        pose.target = readVec3List(pn["target"], nv, "target positions", limits::kMaxCoordinate);
       s.poses.push_back(std::move(pose));
     }
   }
@@ -401,6 +451,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
       if (!(v[0] > 0)) b.at(0).fail("minimum radius must be positive, got " + fmt(v[0]));
       if (!(v[1] > 0)) b.at(1).fail("maximum radius must be positive, got " + fmt(v[1]));
       if (v[0] > v[1]) b.fail("bounds with min > max: [" + fmt(v[0]) + ", " + fmt(v[1]) + "]");
+      for (int k = 0; k < 2; ++k) b.at(k).numberWithin(limits::kMinRadius, limits::kMaxRadius, "m");
       s.design.radiusMin = v[0];
       s.design.radiusMax = v[1];
       s.design.hasRadiusBounds = true;
@@ -408,9 +459,9 @@ Scene parseScene(const std::string& text, const std::string& path) {
     if (d.has("control_points_per_rod")) {
       Node c = d["control_points_per_rod"];
       if (!c.j->is_number_integer()) c.fail("expected an integer, got " + c.typeName());
-      if (!c.integerWithin(2, std::numeric_limits<int>::max()))
-        c.fail("need at least 2 control points per rod (and at most " + std::to_string(std::numeric_limits<int>::max()) +
-               "), got " + c.shortDump());
+      if (!c.integerWithin(2, limits::kMaxControlPoints))
+        c.fail("need at least 2 and at most " + std::to_string(limits::kMaxControlPoints) +
+               " control points per rod (docs/formats.md, \"Plausible ranges\"), got " + c.shortDump());
       s.design.controlPointsPerRod = c.j->get<int>();
     }
   }
@@ -443,12 +494,19 @@ void validateForOptimize(const Scene& s) {
   if (d.hasRadiusBounds) {
     if (!(d.radiusMin > 0)) fail("design.radius_bounds[0]", "minimum radius must be positive, got " + fmt(d.radiusMin));
     if (!(d.radiusMax > 0)) fail("design.radius_bounds[1]", "maximum radius must be positive, got " + fmt(d.radiusMax));
+    if (!(d.radiusMin >= limits::kMinRadius))
+      fail("design.radius_bounds[0]", "outside its plausible range [" + fmt(limits::kMinRadius) + ", " +
+                                          fmt(limits::kMaxRadius) + "] m, got " + fmt(d.radiusMin));
+    if (!(d.radiusMax <= limits::kMaxRadius))
+      fail("design.radius_bounds[1]", "outside its plausible range [" + fmt(limits::kMinRadius) + ", " +
+                                          fmt(limits::kMaxRadius) + "] m, got " + fmt(d.radiusMax));
     if (d.radiusMin > d.radiusMax)
       fail("design.radius_bounds", "bounds with min > max, got [" + fmt(d.radiusMin) + ", " + fmt(d.radiusMax) + "]");
   }
-  if (d.controlPointsPerRod < 2)
-    fail("design.control_points_per_rod",
-         "need at least 2 control points per rod, got " + std::to_string(d.controlPointsPerRod));
+  if (d.controlPointsPerRod < 2 || d.controlPointsPerRod > limits::kMaxControlPoints)
+    fail("design.control_points_per_rod", "need at least 2 and at most " + std::to_string(limits::kMaxControlPoints) +
+                                              " control points per rod, got " +
+                                              std::to_string(d.controlPointsPerRod));
 
   bool anyPositive = false;
   for (std::size_t p = 0; p < s.poses.size(); ++p) {
@@ -461,6 +519,14 @@ void validateForOptimize(const Scene& s) {
       fail(at + ".target", "expected " + std::to_string(s.vertices.size()) +
                                " target positions (one per vertex), got " + std::to_string(pose.target.size()));
     if (!(pose.weight >= 0)) fail(at + ".weight", "weight must be non-negative, got " + fmt(pose.weight));
+    if (!(pose.weight <= limits::kMaxWeight))
+      fail(at + ".weight", "outside its plausible range [0, " + fmt(limits::kMaxWeight) + "], got " + fmt(pose.weight));
+    for (std::size_t v = 0; v < pose.target.size(); ++v)
+      for (int k = 0; k < 3; ++k)
+        if (!(std::abs(pose.target[v][k]) <= limits::kMaxCoordinate))
+          fail(at + ".target[" + std::to_string(v) + "][" + std::to_string(k) + "]",
+               "outside its plausible range [-" + fmt(limits::kMaxCoordinate) + ", " + fmt(limits::kMaxCoordinate) +
+                   "] m, got " + fmt(pose.target[v][k]));
     anyPositive = anyPositive || pose.weight > 0;
   }
   if (!s.poses.empty() && !anyPositive) {
@@ -493,25 +559,49 @@ void validateForOptimize(const Scene& s) {
 Scene readSceneFile(const std::string& path) { return parseScene(readInputFile(path, "scene file"), path); }
 
 std::string readInputFile(const std::string& path, const std::string& what) {
+  // stat() first: a FIFO without a writer would block open() and read(), a
+  // device or socket could be endless, and a file over the limit is refused
+  // by its size before a byte of it is read.
   struct stat st;
   if (::stat(path.c_str(), &st) != 0)
     throw InputError(path + ": cannot open " + what + " (" + std::strerror(errno) + ")");
   if (S_ISDIR(st.st_mode)) throw InputError(path + ": is a directory, not a " + what);
-  // Regular files and pipes (a scene from `<(...)`); devices could be endless.
-  if (!S_ISREG(st.st_mode) && !S_ISFIFO(st.st_mode))
-    throw InputError(path + ": not a regular file (a device or socket), not read as a " + what);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open " + what + " (" + std::strerror(errno) + ")");
-  // Read in blocks up to the limit: a device or a pipe has no size to check first.
+  auto notRegular = [&](const struct stat& t) {
+    const char* kind = S_ISFIFO(t.st_mode)                        ? "a FIFO (named pipe)"
+                       : S_ISSOCK(t.st_mode)                      ? "a socket"
+                       : S_ISCHR(t.st_mode) || S_ISBLK(t.st_mode) ? "a device"
+                                                                  : "a special file";
+    return InputError(path + ": not a regular file (" + kind + "), not read as a " + what);
+  };
+  auto tooLarge = [&](long long bytes) {
+    return InputError(path + ": " + what + " is larger than " + std::to_string(kMaxInputFileBytes >> 20) +
+                      " MiB (" + std::to_string(bytes) + " bytes); not read");
+  };
+  if (!S_ISREG(st.st_mode)) throw notRegular(st);
+  if (static_cast<unsigned long long>(st.st_size) > kMaxInputFileBytes) throw tooLarge(st.st_size);
+  // O_NONBLOCK: should the path have been replaced by a FIFO since stat(),
+  // open() does not wait for a writer; fstat() then sees what was opened.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) throw InputError(path + ": cannot open " + what + " (" + std::strerror(errno) + ")");
+  struct FdCloser {
+    int fd;
+    ~FdCloser() { ::close(fd); }
+  } closer{fd};
+  if (::fstat(fd, &st) != 0) throw InputError(path + ": cannot read " + what + " (" + std::strerror(errno) + ")");
+  if (!S_ISREG(st.st_mode)) throw notRegular(st);
+  if (static_cast<unsigned long long>(st.st_size) > kMaxInputFileBytes) throw tooLarge(st.st_size);
+  // Read in blocks up to the limit (a file may grow while it is read).
   std::string text;
+  text.reserve(static_cast<std::size_t>(st.st_size));
   char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
-    text.append(buf, static_cast<std::size_t>(in.gcount()));
-    if (text.size() > kMaxInputFileBytes)
-      throw InputError(path + ": " + what + " is larger than " + std::to_string(kMaxInputFileBytes >> 20) +
-                       " MiB; not read");
+  for (;;) {
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw InputError(path + ": cannot read " + what + " (" + std::strerror(errno) + ")");
+    if (n == 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+    if (text.size() > kMaxInputFileBytes) throw tooLarge(static_cast<long long>(text.size()));
   }
-  if (in.bad()) throw InputError(path + ": cannot read " + what);
   return text;
 }
 

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "io/scene_reader.hh"
+#include "model/limits.hh"
 
 namespace rodmesh::meshing {
 
@@ -174,19 +175,35 @@ void validateGridOptions(const GridOptions& o) {
   const double estimate = 6.0 * o.cellsX * static_cast<double>(o.cellsY) * o.rodVertices;
   if (estimate > 2e7)
     bad("--cells and --rod-vertices give a sheet of about " + fmt(estimate) + " vertices (limit 2e7)");
-  if (!(o.material.youngModulus > 0 && std::isfinite(o.material.youngModulus))) bad("--young-modulus must be positive");
+  // The plausible ranges of every scene (model/limits.hh).
+  if (!(o.material.youngModulus >= limits::kMinYoungModulus && o.material.youngModulus <= limits::kMaxYoungModulus))
+    bad("--young-modulus must lie in [" + fmt(limits::kMinYoungModulus) + ", " + fmt(limits::kMaxYoungModulus) +
+        "] Pa (got " +
+        fmt(o.material.youngModulus) + ")");
   if (!(o.material.poissonRatio > -1 && o.material.poissonRatio < 0.5)) bad("--poisson-ratio must lie in (-1, 0.5)");
-  if (!(o.material.density > 0 && std::isfinite(o.material.density))) bad("--material-density must be positive");
-  if (!(o.radius[0] > 0 && o.radius[1] > 0 && o.radius.allFinite())) bad("--radius values must be positive");
-  if (!(o.radiusMin > 0 && o.radiusMin <= o.radiusMax && std::isfinite(o.radiusMax)))
-    bad("--radius-bounds must satisfy 0 < min <= max (got " + fmt(o.radiusMin) + ", " + fmt(o.radiusMax) + ")");
+  if (!(o.material.density >= limits::kMinDensity && o.material.density <= limits::kMaxDensity))
+    bad("--material-density must lie in [" + fmt(limits::kMinDensity) + ", " + fmt(limits::kMaxDensity) +
+        "] kg/m^3 (got " +
+        fmt(o.material.density) + ")");
+  for (int k = 0; k < 2; ++k)
+    if (!(o.radius[k] >= limits::kMinRadius && o.radius[k] <= limits::kMaxRadius))
+      bad("--radius values must lie in [" + fmt(limits::kMinRadius) + ", " + fmt(limits::kMaxRadius) + "] m (got " +
+          fmt(o.radius[k]) + ")");
+  if (!(o.radiusMin >= limits::kMinRadius && o.radiusMin <= o.radiusMax && o.radiusMax <= limits::kMaxRadius))
+    bad("--radius-bounds must satisfy " + fmt(limits::kMinRadius) + " <= min <= max <= " + fmt(limits::kMaxRadius) +
+        " m (got " + fmt(o.radiusMin) + ", " + fmt(o.radiusMax) + ")");
   if (o.radius.minCoeff() < o.radiusMin || o.radius.maxCoeff() > o.radiusMax)
     bad("--radius must lie within --radius-bounds");
-  if (o.controlPointsPerRod < 2 || o.controlPointsPerRod > 1000)  // as meshing::kMaxControlPoints
-    bad("--control-points must lie in [2, 1000] (got " + std::to_string(o.controlPointsPerRod) + ")");
-  if (o.gravity && !o.gravity->allFinite()) bad("--gravity must be finite");
+  if (o.controlPointsPerRod < 2 || o.controlPointsPerRod > limits::kMaxControlPoints)
+    bad("--control-points must lie in [2, " + std::to_string(limits::kMaxControlPoints) + "] (got " +
+        std::to_string(o.controlPointsPerRod) + ")");
+  if (o.gravity && !(o.gravity->allFinite() && o.gravity->cwiseAbs().maxCoeff() <= limits::kMaxGravity))
+    bad("--gravity components must lie in [-" + fmt(limits::kMaxGravity) + ", " + fmt(limits::kMaxGravity) + "] m/s^2");
   for (const SidePull& p : o.pulls)
-    if (!p.force.allFinite()) bad(std::string("--pull ") + gridSideName(p.side) + ": the force must be finite");
+    if (!(p.force.allFinite() && p.force.cwiseAbs().maxCoeff() <= limits::kMaxForce))
+      bad(std::string("--pull ") + gridSideName(p.side) + ": force components must lie in [-" +
+          fmt(limits::kMaxForce) + ", " + fmt(limits::kMaxForce) + "] N (got " + fmt(p.force[0]) + " " +
+          fmt(p.force[1]) + " " + fmt(p.force[2]) + ")");
 }
 
 std::vector<int> sideVertices(const Scene& scene, GridSide side, double tolerance) {

@@ -161,13 +161,13 @@ void validateOptions(const MeshOptions& o) {
   }
   if (o.method == MeshMethod::Dual) requireRange("--faces", o.dualFaces, 4, kMaxDualFaces);
   if (o.edgeLength != 0) requirePositive("--edge-length", o.edgeLength, kMaxLength, "m");
-  requirePositive("--young-modulus", o.material.youngModulus, kMaxYoungModulus, "Pa");
+  requireRange("--young-modulus", o.material.youngModulus, limits::kMinYoungModulus, kMaxYoungModulus, "Pa");
   if (!(o.material.poissonRatio > -1 && o.material.poissonRatio < 0.5))
     bad("--poisson-ratio must lie in (-1, 0.5) (got " + fmt(o.material.poissonRatio) + ")");
-  requirePositive("--material-density", o.material.density, kMaxDensity, "kg/m^3");
-  for (int k = 0; k < 2; ++k) requirePositive("--radius", o.radius[k], kMaxLength, "m");
-  requirePositive("--radius-bounds", o.radiusMin, kMaxLength, "m");
-  requirePositive("--radius-bounds", o.radiusMax, kMaxLength, "m");
+  requireRange("--material-density", o.material.density, limits::kMinDensity, kMaxDensity, "kg/m^3");
+  for (int k = 0; k < 2; ++k) requireRange("--radius", o.radius[k], limits::kMinRadius, kMaxLength, "m");
+  requireRange("--radius-bounds", o.radiusMin, limits::kMinRadius, kMaxLength, "m");
+  requireRange("--radius-bounds", o.radiusMax, limits::kMinRadius, kMaxLength, "m");
   if (!(o.radiusMin <= o.radiusMax))
     bad("--radius-bounds must satisfy 0 < min <= max (got " + fmt(o.radiusMin) + ", " + fmt(o.radiusMax) + ")");
   if (o.radius.minCoeff() < o.radiusMin || o.radius.maxCoeff() > o.radiusMax)

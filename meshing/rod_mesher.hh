@@ -12,6 +12,7 @@
 #include "meshing/cvt.hh"
 #include "meshing/layout.hh"
 #include "meshing/surface.hh"
+#include "model/limits.hh"
 #include "model/scene.hh"
 
 #include <map>
@@ -58,15 +59,17 @@ constexpr int kMaxRestarts = 20;           // --restarts
 constexpr double kMinRefinement = 1.0;     // --refinement
 constexpr double kMaxRefinement = 20.0;
 constexpr int kMaxDualFaces = 1000000;     // --faces
-constexpr double kMaxLength = 100.0;       // --edge-length, --radius, --radius-bounds [m]
-constexpr double kMaxYoungModulus = 1e13;  // [Pa]
-constexpr double kMaxDensity = 1e5;        // --material-density [kg/m^3]
-constexpr double kMaxGravity = 1e4;        // per component [m/s^2]
-constexpr int kMaxControlPoints = 1000;    // --control-points
+// The material, radius, gravity, force and control point limits are the
+// plausible ranges every scene is checked against (model/limits.hh).
+constexpr double kMaxLength = limits::kMaxRadius;              // --edge-length, --radius, --radius-bounds [m]
+constexpr double kMaxYoungModulus = limits::kMaxYoungModulus;  // [Pa]
+constexpr double kMaxDensity = limits::kMaxDensity;            // --material-density [kg/m^3]
+constexpr double kMaxGravity = limits::kMaxGravity;            // per component [m/s^2]
+constexpr int kMaxControlPoints = limits::kMaxControlPoints;   // --control-points
 constexpr double kMaxRodVertices = 1e6;    // rod vertices of one mesh (edge length vs rod lengths)
 // meshSurface: the surface's bounding-box diagonal, in metres (after --scale).
 constexpr double kMinSurfaceSize = 1e-6;
-constexpr double kMaxSurfaceSize = 1e6;
+constexpr double kMaxSurfaceSize = limits::kMaxCoordinate;
 
 // Throws InputError naming the flag and the value for options out of range or
 // inconsistent (NaN and infinities are out of every range).

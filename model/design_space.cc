@@ -265,6 +265,12 @@ ControlValues DesignSpace::unpack(const DesignPhase& phase, const Eigen::VectorX
   return c;
 }
 
+namespace {
+// Relative rounding of an interpolated radius (a convex combination of at
+// most kMaxControlPoints control values) that toDesign snaps back to a bound.
+constexpr double kRoundingSlack = 1e-12;
+}  // namespace
+
 Design DesignSpace::toDesign(const ControlValues& controls) const {
   assert(controls.radii.rows() == numControlPoints() && controls.displacement.rows() == numControlPoints());
   const Eigen::MatrixXd radii = W_ * controls.radii;
@@ -275,7 +281,18 @@ Design DesignSpace::toDesign(const ControlValues& controls) const {
   d.radii.resize(numVertices());
   for (int v = 0; v < numVertices(); ++v) {
     d.restPositions[v] = sceneVertices_[v] + disp.row(v).transpose();
-    d.radii[v] = radii.row(v).transpose();
+    // The weights of a vertex are non-negative and sum to one, so its radii
+    // lie within the range of the control radii up to rounding. A radius
+    // beyond a bound by no more than that rounding (relative 1e-12) is set to
+    // the bound, so that "a vertex radius never leaves the bounds" holds to
+    // the last digit; farther out (a finite-difference probe of controls
+    // outside the bounds) it is left as interpolated, keeping the map smooth.
+    for (int k = 0; k < 2; ++k) {
+      double r = radii(v, k);
+      if (r < radiusMin_ && r >= radiusMin_ * (1.0 - kRoundingSlack)) r = radiusMin_;
+      if (r > radiusMax_ && r <= radiusMax_ * (1.0 + kRoundingSlack)) r = radiusMax_;
+      d.radii[v][k] = r;
+    }
   }
   return d;
 }

@@ -37,10 +37,13 @@
 //      [dx, dy, dz], or for a planar scene (EffectSet::planar) 2 per node, the
 //      components along the columns of EffectSet::planeBasis.
 // toDesign maps control values to the per-vertex Design (model/design.hh):
-//   radii_v = (W * radii controls)_v,
+//   radii_v = (W * radii controls)_v, set to the bound it passes by rounding
+//   only (relative 1e-12), so that controls within the bounds give vertex
+//   radii within them to the last digit,
 //   restPositions_v = scene.vertices[v] + P (W * displacement controls)_v,
 // with P = B B^T (B = planeBasis) for a planar scene and P = I otherwise.
-// The composite z -> Design::toVector() is affine; jacobian() is exact.
+// The composite z -> Design::toVector() is affine (up to that rounding);
+// jacobian() is exact.
 #pragma once
 
 #include <Eigen/Core>

@@ -34,12 +34,15 @@ struct SandOptions {
 };
 
 // Empty if Ipopt has an option `key` and `value` is valid for it (type and
-// range); otherwise a one-line reason naming both.
+// range) and usable in this build (linear_solver: mumps only; no HSL
+// scaling); otherwise a one-line reason naming both.
 std::string checkIpoptOption(const std::string& key, const std::string& value);
 
 // Whether ./ipopt.opt exists (Ipopt reads it; its options override the defaults).
 bool ipoptOptionsFilePresent();
-// Empty if ./ipopt.opt is absent or Ipopt accepts it; otherwise why not.
+// Empty if ./ipopt.opt is absent, or a regular file of lines KEY VALUE
+// ('#' comments) each of which checkIpoptOption accepts; otherwise why not,
+// naming the file, the line, the key and the value (nlp/ipopt_options.cc).
 std::string checkIpoptOptionsFile();
 
 DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, const SandOptions& options,

@@ -60,6 +60,10 @@ class SandTnlp : public Ipopt::TNLP {
   struct Hooks {
     std::function<void(int iter, const double* x, double infDu, double alphaPr)> progress;
     std::function<StopReason()> stop;
+    // The run's hard limits (interrupt, time limit) alone, checked at every
+    // evaluation: Ipopt calls no intermediate_callback while it checks
+    // derivatives (derivative_test) or inside one long line search.
+    std::function<StopReason()> limits;
   };
 
   SandTnlp(SandNlp& nlp, Hooks hooks) : nlp_(nlp), hooks_(std::move(hooks)) {
@@ -122,9 +126,30 @@ class SandTnlp : public Ipopt::TNLP {
     return true;
   }
 
-  bool eval_f(Index, const Number* x, bool, Number& f) override { return nlp_.objective(x, f); }
-  bool eval_grad_f(Index, const Number* x, bool, Number* g) override { return nlp_.gradient(x, g); }
-  bool eval_g(Index, const Number* x, bool, Index, Number* g) override { return nlp_.constraints(x, g); }
+  // Once a limit is reached every evaluation fails at once (Ipopt's contract
+  // for an evaluation error: nothing thrown), so that whatever Ipopt is doing,
+  // the derivative checker included, ends within one evaluation; the stop
+  // reason tells the schedule why.
+  bool limitReached() {
+    if (stopReason_ == StopReason::Interrupted || stopReason_ == StopReason::TimeLimit) return true;
+    if (!hooks_.limits) return false;
+    try {
+      const StopReason r = hooks_.limits();
+      if (r == StopReason::None) return false;
+      stopReason_ = r;
+    } catch (...) {
+      return false;
+    }
+    return true;
+  }
+
+  bool eval_f(Index, const Number* x, bool, Number& f) override { return !limitReached() && nlp_.objective(x, f); }
+  bool eval_grad_f(Index, const Number* x, bool, Number* g) override {
+    return !limitReached() && nlp_.gradient(x, g);
+  }
+  bool eval_g(Index, const Number* x, bool, Index, Number* g) override {
+    return !limitReached() && nlp_.constraints(x, g);
+  }
 
   bool eval_jac_g(Index n, const Number* x, bool, Index, Index nele, Index* iRow, Index* jCol,
                   Number* values) override {
@@ -133,6 +158,7 @@ class SandTnlp : public Ipopt::TNLP {
       std::copy(nlp_.jacobianCols().begin(), nlp_.jacobianCols().end(), jCol);
       return true;
     }
+    if (limitReached()) return false;
     // Ipopt evaluates the Jacobian at each new iterate: remember it for progress.
     current_.assign(x, x + n);
     return nlp_.jacobian(x, values);
@@ -145,6 +171,7 @@ class SandTnlp : public Ipopt::TNLP {
       std::copy(nlp_.hessianCols().begin(), nlp_.hessianCols().end(), jCol);
       return true;
     }
+    if (limitReached()) return false;
     if (slowHessian_ > 0 && hessianCalls_++ > 0)
       std::this_thread::sleep_for(std::chrono::duration<double>(slowHessian_));
     return nlp_.hessian(x, sigma, lambda, values);
@@ -228,10 +255,24 @@ const char* applicationStatusName(Ipopt::ApplicationReturnStatus s) {
   }
 }
 
+// Settings Ipopt registers but this build cannot run: the HSL, Pardiso and
+// WSMP linear solvers and HSL's MC19 scaling are not part of Debian's Ipopt
+// (MUMPS is its only linear solver); Ipopt would accept them here and fail
+// with "invalid option" only when the run starts.
+std::string unavailableSetting(const std::string& key, const std::string& value) {
+  if (key == "linear_solver" && value != "mumps")
+    return "Ipopt option 'linear_solver': '" + value + "' is not available in this build (allowed: mumps)";
+  if (key == "linear_system_scaling" && value == "mc19")
+    return "Ipopt option 'linear_system_scaling': 'mc19' needs the HSL library, which this build does not have "
+           "(allowed: none, slack-based)";
+  return "";
+}
+
 // Sets a user option with the type Ipopt registered for it.
 std::string setOption(Ipopt::IpoptApplication& app, const std::string& key, const std::string& value) {
   Ipopt::SmartPtr<const Ipopt::RegisteredOption> opt = app.RegOptions()->GetOption(key);
   if (!Ipopt::IsValid(opt)) return "Ipopt has no option '" + key + "'";
+  if (std::string why = unavailableSetting(key, value); !why.empty()) return why;
   const char* s = value.c_str();
   char* end = nullptr;
   switch (opt->Type()) {
@@ -300,18 +341,6 @@ std::string checkIpoptOption(const std::string& key, const std::string& value) {
   return setOption(*app, key, value);
 }
 
-bool ipoptOptionsFilePresent() { return std::ifstream("ipopt.opt").good(); }
-
-std::string checkIpoptOptionsFile() {
-  if (!ipoptOptionsFilePresent()) return "";
-  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
-  app->Options()->SetIntegerValue("print_level", 0);
-  app->Options()->SetStringValue("sb", "yes");
-  if (app->Initialize() != Ipopt::Solve_Succeeded)
-    return "./ipopt.opt: Ipopt rejects this options file (an unknown option or an invalid value)";
-  return "";
-}
-
 DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, const SandOptions& so,
                                    const DesignProgress& progress) {
   const auto t0 = Clock::now();
@@ -339,6 +368,9 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
     res.evaluationSeconds += since(te);
     if (!ok) {
       res.design = d0;
+      // Newton solves stop at the run's limits too (NewtonOptions::cancel).
+      if (opt.stopRequested && opt.stopRequested()) return finish(Outcome::Interrupted, "interrupted");
+      if (opt.timeLimit > 0 && since(t0) >= opt.timeLimit) return finish(Outcome::TimeLimit, "time limit reached");
       return finish(Outcome::NumericalFailure,
                     "no equilibrium under the initial design: the poses cannot be solved as given");
     }
@@ -574,6 +606,11 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
         bestIterate.first = it.objective;
         bestIterate.second.assign(x, x + nlp.numVariables());
       }
+    };
+    hooks.limits = [&] {
+      if (opt.stopRequested && opt.stopRequested()) return StopReason::Interrupted;
+      if (opt.timeLimit > 0 && since(t0) >= opt.timeLimit) return StopReason::TimeLimit;
+      return StopReason::None;
     };
     hooks.stop = [&] {
       if (opt.stopRequested && opt.stopRequested()) return StopReason::Interrupted;

@@ -3,6 +3,7 @@
 #   scene    the scene reader (JSON text)
 #   surface  the OBJ, OFF and PLY readers
 #   archive  the archive reader of `inspect` and `export` (HDF5 file images)
+#   optimize the checks of `optimize` before any work: flags and design block
 # Builds the libFuzzer harnesses of fuzz/ with clang, AddressSanitizer and
 # UndefinedBehaviorSanitizer into build-fuzz/, seeds each corpus from
 # examples/, tests/ and fuzz/regressions/, runs the targets one after the
@@ -18,24 +19,35 @@ cd "$(dirname "$0")/.."
 minutes="${1:-10}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(scene surface archive)
+[ ${#targets[@]} -eq 0 ] && targets=(scene surface archive optimize)
 case "$minutes" in
-  '' | *[!0-9]*) echo "usage: scripts/fuzz.sh [MINUTES] [scene|surface|archive ...]" >&2; exit 2 ;;
+  '' | *[!0-9]*) echo "usage: scripts/fuzz.sh [MINUTES] [scene|surface|archive|optimize ...]" >&2; exit 2 ;;
 esac
 
 ./scripts/install-deps.sh
 build=build-fuzz
 CC=clang CXX=clang++ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRODMESH_FUZZ=ON \
   -DRODMESH_BUILD_TESTS=OFF -DRODMESH_BUILD_MESHING=OFF -DRODMESH_NATIVE=OFF >/dev/null
-nice cmake --build "$build" -j1 --target fuzz_scene fuzz_surface fuzz_archive make_seed_archives
+nice cmake --build "$build" -j1 --target fuzz_scene fuzz_surface fuzz_archive fuzz_optimize make_seed_archives
 
 # Seeds: every scene and surface of the repository, small hand-made OFF and
 # PLY files (ASCII and binary), archives shaped like those of simulate,
 # optimize and dynamic runs, and every regression input.
 seeds="$build/seeds"
 rm -rf "$seeds"
-mkdir -p "$seeds/scene" "$seeds/surface" "$seeds/archive"
+mkdir -p "$seeds/scene" "$seeds/surface" "$seeds/archive" "$seeds/optimize"
 for f in examples/*.json tests/cli/*.json; do cp "$f" "$seeds/scene/$(echo "$f" | tr / _)"; done
+# fuzz_optimize: a line of flags, then a scene with a design block.
+k=0
+for flags in "--max-iter 50 --time-limit 5" "--tol 1e-6 --threads 2" "--max-iter 1e12 --time-limit -1e-9" \
+  "--tol 1e300 --max-iter ''"; do
+  for f in tests/cli/optimize_small.json examples/*.json; do
+    if grep -q '"design"' "$f"; then
+      { echo "$flags"; cat "$f"; } >"$seeds/optimize/seed_${k}_$(basename "$f")"
+    fi
+  done
+  k=$((k + 1))
+done
 cp examples/surfaces/*.obj "$seeds/surface/"
 printf 'OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n' >"$seeds/surface/square.off"
 printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' >"$seeds/surface/triangle.ply"
@@ -45,14 +57,14 @@ printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty floa
 } >"$seeds/surface/triangle_binary.ply"
 "$build/fuzz/make_seed_archives" "$seeds/archive" examples/cantilever.json tests/cli/bent_3d.json \
   tests/cli/optimize_small.json >/dev/null
-for t in scene surface archive; do
+for t in scene surface archive optimize; do
   if [ -d "fuzz/regressions/$t" ]; then cp "fuzz/regressions/$t/"* "$seeds/$t/"; fi
 done
 
 summary=()
 for t in "${targets[@]}"; do
   exe="$build/fuzz/fuzz_$t"
-  [ -x "$exe" ] || { echo "fuzz.sh: unknown target '$t' (scene, surface, archive)" >&2; exit 2; }
+  [ -x "$exe" ] || { echo "fuzz.sh: unknown target '$t' (scene, surface, archive, optimize)" >&2; exit 2; }
   corpus="$build/corpus/$t"
   findings="$build/findings/$t"
   log="$build/fuzz_$t.log"
@@ -60,6 +72,7 @@ for t in "${targets[@]}"; do
   mkdir -p "$corpus" "$findings"
   extra=()
   [ "$t" = scene ] && extra+=(-dict=fuzz/scene.dict)
+  [ "$t" = optimize ] && extra+=(-dict=fuzz/scene.dict)
   # HDF5 itself leaks on some error paths; leaks in our code show up in the
   # scene and surface targets, which share the io library.
   [ "$t" = archive ] && extra+=(-detect_leaks=0)

@@ -162,7 +162,7 @@ bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::
   const bool cached = lastZ_.size() == z.size() && lastZ_ == z;
   if (cached) {
     states = lastStates_;
-  } else if (!solvePoses(d, states)) {
+  } else if ((stop_ && stop_()) || !solvePoses(d, states)) {
     return false;
   }
   const int n = model_.numPoses();
@@ -243,6 +243,7 @@ bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::
     for (int i = 0; i < z.size(); ++i) {
       const double h = fdResolveStep * fdScale_[i];
       double fp, fm;
+      if (stop_ && stop_()) return false;
       zp[i] = z[i] + h;
       if (!probeObjective(zp, states, fp)) return false;
       zp[i] = z[i] - h;
@@ -375,6 +376,9 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
   const TargetObjective objective(scene, model.effects());
   DesignOptimizerResult res;
   res.controls = space.initialControls(scene);
+  auto limitReached = [&] {
+    return (opt.stopRequested && opt.stopRequested()) || (opt.timeLimit > 0 && since(t0) >= opt.timeLimit);
+  };
   const int finest = space.numLevels() - 1;
   const bool radii = scene.design.radii, rest = scene.design.restShape;
 
@@ -389,6 +393,9 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     if (!ro.evaluate(space.pack(any, res.controls), f, nullptr)) {
       res.status = {Outcome::NumericalFailure,
                     "no equilibrium under the initial design: the poses cannot be solved as given"};
+      // Newton solves stop at the run's limits too (NewtonOptions::cancel).
+      if (opt.stopRequested && opt.stopRequested()) res.status = {Outcome::Interrupted, "interrupted"};
+      else if (opt.timeLimit > 0 && since(t0) >= opt.timeLimit) res.status = {Outcome::TimeLimit, "time limit reached"};
       res.design = d0;
       res.timeSeconds = since(t0);
       return res;
@@ -445,6 +452,7 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     ReducedObjective ro(model, space, objective, phase, res.controls, opt.newton, opt.threads, states);
     const Eigen::VectorXd s = designVariableScale(space, phase, scene);
     if (opt.designDerivatives != DesignDerivatives::Exact) ro.setDesignDerivatives(opt.designDerivatives, s);
+    ro.setStop(limitReached);
     Eigen::VectorXd lo, hi;
     space.bounds(phase, lo, hi);
     const Eigen::VectorXd y0 = space.pack(phase, res.controls).cwiseQuotient(s);
@@ -519,7 +527,11 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
                     "the design at the end of " + stepName + " (iteration " + std::to_string(iterations) + ")");
     }
     states = ro.warmStates();
-    const Outcome o = br.status.outcome;
+    Outcome o = br.status.outcome;
+    // A phase cut by the run's limits inside an evaluation (its line search
+    // then fails) ends for that reason.
+    if (o != Outcome::Converged && limitReached())
+      o = opt.stopRequested && opt.stopRequested() ? Outcome::Interrupted : Outcome::TimeLimit;
     if (targetsMet) {
       stop = Outcome::Converged;
       message = "every target met to round-off";
@@ -528,7 +540,9 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
     if (o == Outcome::TimeLimit || o == Outcome::Interrupted || o == Outcome::NumericalFailure) {
       stop = o;
       // The phase's BFGS had what was left of --time-limit; name the user's.
-      message = o == Outcome::TimeLimit ? "time limit reached" : br.status.message;
+      message = o == Outcome::TimeLimit                                              ? "time limit reached"
+                : o == Outcome::Interrupted && br.status.outcome != Outcome::Interrupted ? "interrupted"
+                                                                                         : br.status.message;
       break;
     }
     if (o == Outcome::MaxIterations && iterations >= opt.maxIterations) {

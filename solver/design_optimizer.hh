@@ -241,6 +241,10 @@ class ReducedObjective {
   // (DesignDerivatives); `scale` (size of z) is each variable's scale, the
   // step being the mode's relative step times it.
   void setDesignDerivatives(DesignDerivatives mode, const Eigen::VectorXd& scale);
+  // The run's limits (interrupt, time limit): once `stop` returns true, an
+  // evaluation that would solve fails at once, and fd-resolve checks it
+  // between its re-solves (each probe re-solves every pose).
+  void setStop(std::function<bool()> stop) { stop_ = std::move(stop); }
   // f(z), and its gradient when g != nullptr. False when an equilibrium
   // cannot be found under this design.
   bool evaluate(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g);
@@ -268,6 +272,7 @@ class ReducedObjective {
   std::vector<PoseState> warm_;
   DesignDerivatives derivatives_ = DesignDerivatives::Exact;
   Eigen::VectorXd fdScale_;
+  std::function<bool()> stop_;
   // Cache of the last successful evaluation.
   Eigen::VectorXd lastZ_;
   std::vector<PoseState> lastStates_;

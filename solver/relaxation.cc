@@ -98,6 +98,7 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
     chartsStart = sys.charts();
   };
 
+  double nextProgress = opt.progressInterval;
   for (;;) {
     record(false);
     if (!std::isfinite(E) || !g.allFinite()) {
@@ -118,6 +119,16 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
     if (opt.timeLimit > 0 && since(t0) > opt.timeLimit) {
       rep.message = "time limit reached";
       break;
+    }
+    // A progress report every progressInterval seconds: a relaxation can
+    // take minutes, and a silent one looks hung.
+    if (opt.progress && since(t0) >= nextProgress) {
+      nextProgress = since(t0) + opt.progressInterval;
+      rep.residualNorm = res;
+      rep.relativeResidual = scale > 0 ? res / scale : res;
+      rep.timeSeconds = since(t0);
+      rep.finalStep = h;
+      opt.progress(rep);
     }
 
     // Leapfrog velocity update (half a step from rest).

@@ -26,12 +26,15 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "model/pose_system.hh"
 
 namespace rodmesh {
+
+struct RelaxationReport;
 
 struct RelaxationOptions {
   int maxIterations = 1000000;  // force evaluations
@@ -44,6 +47,11 @@ struct RelaxationOptions {
   double stepGrowth = 1.1;      // per stable kinetic-energy cycle
   int massUpdateInterval = 10;  // iterations between refreshes of the fictitious masses
   int historyStride = 1;        // record every n-th residual (the last one always)
+  // Called every progressInterval seconds of wall clock with the report so
+  // far (iterations, residualNorm, relativeResidual, timeSeconds, finalStep =
+  // the current step); empty: never.
+  std::function<void(const RelaxationReport&)> progress;
+  double progressInterval = 2.0;  // s
   std::string isValid() const;  // empty if valid, else what is wrong
 };
 

@@ -199,6 +199,9 @@ TEST_F(MeshInputCli, NumericFlagsOfMeshAreValidated) {
       {"--radius-bounds 0.001 1e999", {"--radius-bounds", "'1e999'"}},
       {"--gravity 0 0 nan", {"--gravity", "'nan'"}},
       {"--fix-box 0 0 0 1 1 1e999", {"--fix-box", "'1e999'"}},
+      // issue 23: "-inf" read as short flags, the flag never named.
+      {"--fix-box -1 -inf abc 1e12 inf 0", {"--fix-box", "'-inf'"}},
+      {"--fix-box 0 0 0 1 abc 1", {"--fix-box", "'abc'"}},
       {"--control-points 100000", {"--control-points", "100000"}},
       {"--dual --faces 100000000", {"--faces", "100000000"}},
   };

@@ -379,7 +379,8 @@ TEST(SceneReaderErrors, NamesAndKeysWithControlCharactersKeepMessagesOnOneLine) 
   json j = baseScene();
   j["poses"].push_back(j["poses"][0]);
   j["poses"][0]["name"] = j["poses"][1]["name"] = "two\nlines";
-  expectMessage(errorOf(j), "poses[1].name", {"duplicate pose name \"two\\nlines\""});
+  // Issue 23: a pose name names an HDF5 group; control characters are refused.
+  expectMessage(errorOf(j), "poses[0].name", {"control characters", "\"two\\nlines\""});
   json k = baseScene();
   k["effects"] = json::array({"stretch", "be\x1b[2Jnd"});
   expectMessage(errorOf(k), "effects[1]", {"unknown effect \"be\\u001b[2Jnd\""});
