@@ -62,15 +62,19 @@ inline bool wholeNumberWithin(const std::string& text, long long lo, long long h
 // CLI11 validator for integer flags, run on the text before CLI11 converts
 // it (so that "2147483648" or "1e3" is reported with the range instead of
 // "Could not convert"): a whole number in [lo, hi].
+// What is wrong with `text` as a whole number in [lo, hi] (also an empty
+// text, which CLI11 would read as 0), or "" when nothing is. The Python
+// bindings check their keyword options with it too, for the same message.
+inline std::string wholeNumberProblem(const std::string& text, long long lo, long long hi) {
+  if (wholeNumberWithin(text, lo, hi)) return "";
+  return "must be a whole number in the allowed range [" + std::to_string(lo) + ", " + std::to_string(hi) +
+         "] (got '" + text + "')";
+}
+
 inline CLI::Validator wholeNumberIn(long long lo, long long hi) {
   const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-  return CLI::Validator(
-      [lo, hi, range](std::string& text) -> std::string {
-        if (wholeNumberWithin(text, lo, hi)) return "";
-        // Also an empty text, which CLI11 would read as 0.
-        return "must be a whole number in the allowed range " + range + " (got '" + text + "')";
-      },
-      "INT in " + range);
+  return CLI::Validator([lo, hi](std::string& text) -> std::string { return wholeNumberProblem(text, lo, hi); },
+                        "INT in " + range);
 }
 
 // The allowed range of a real-valued flag: [lo, hi], either end open.
@@ -108,13 +112,14 @@ inline bool realNumberWithin(const std::string& text, const RealRange& range) {
 // number in [0, 1e+09] s (got '-1e-9')"), never a reformatted value, and
 // CLI11 never gets to say "Could not convert". An empty text is refused too
 // (CLI11 would read it as 0).
+inline std::string realNumberProblem(const std::string& text, const RealRange& range) {
+  if (realNumberWithin(text, range)) return "";
+  return "must be a number in the allowed range " + range.text() + " (got '" + asTyped(text) + "')";
+}
+
 inline CLI::Validator realNumberIn(const RealRange& range) {
-  return CLI::Validator(
-      [range](std::string& text) -> std::string {
-        if (realNumberWithin(text, range)) return "";
-        return "must be a number in the allowed range " + range.text() + " (got '" + asTyped(text) + "')";
-      },
-      "NUMBER in " + range.text());
+  return CLI::Validator([range](std::string& text) -> std::string { return realNumberProblem(text, range); },
+                        "NUMBER in " + range.text());
 }
 
 // Ranges of the solver flags of simulate and optimize (docs/formats.md,

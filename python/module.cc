@@ -18,6 +18,7 @@
 #include <pybind11/stl.h>
 
 #include "apps/cli_common.hh"
+#include "apps/flag_checks.hh"
 #include "apps/run.hh"
 #include "io/archive.hh"
 #include "io/scene_reader.hh"
@@ -110,10 +111,30 @@ void rejectUnknown(const py::dict& kw, const std::set<std::string>& known, const
   }
 }
 
+// The CLI's own range checks on a keyword option's text (str() of the
+// value), with the CLI's message: "--tol: must be a number in ...".
+void checkReal(const py::dict& kw, const char* key, const cli::RealRange& range) {
+  if (!kw.contains(key) || kw[key].is_none()) return;
+  const std::string problem = cli::realNumberProblem(py::str(kw[key]).cast<std::string>(), range);
+  if (!problem.empty()) throw InputError(flagOf(key) + ": " + problem);
+}
+void checkWhole(const py::dict& kw, const char* key, long long lo, long long hi) {
+  if (!kw.contains(key) || kw[key].is_none()) return;
+  const std::string problem = cli::wholeNumberProblem(py::str(kw[key]).cast<std::string>(), lo, hi);
+  if (!problem.empty()) throw InputError(flagOf(key) + ": " + problem);
+}
+
 cli::SimulateOptions simulateOptions(const py::dict& kw) {
   rejectUnknown(kw, {"tol", "max_iter", "static_solver", "time_limit", "dynamic", "duration", "fps", "max_step",
                      "ramp"},
                 "simulate");
+  checkReal(kw, "tol", cli::kSimulateTolRange);
+  checkWhole(kw, "max_iter", 1, cli::kMaxSimulateIterations);
+  checkReal(kw, "time_limit", cli::kPositiveSecondsRange);
+  checkReal(kw, "duration", cli::kDurationRange);
+  checkReal(kw, "fps", cli::kFpsRange);
+  checkReal(kw, "max_step", cli::kPositiveSecondsRange);
+  checkReal(kw, "ramp", cli::kSecondsRange);
   cli::SimulateOptions o;
   auto has = [&](const char* k) { return kw.contains(k) && !kw[k].is_none(); };
   if (has("tol")) o.newton.tolerance = kw["tol"].cast<double>();
@@ -141,6 +162,10 @@ cli::SimulateOptions simulateOptions(const py::dict& kw) {
 cli::OptimizeOptions optimizeOptions(const py::dict& kw) {
   rejectUnknown(kw, {"method", "max_iter", "time_limit", "tol", "schedule", "threads", "design_derivatives", "ipopt"},
                 "optimize");
+  checkWhole(kw, "max_iter", 0, cli::kMaxOptimizeIterations);
+  checkReal(kw, "time_limit", cli::kTimeLimitRange);
+  checkReal(kw, "tol", cli::kOptimizeTolRange);
+  checkWhole(kw, "threads", 1, cli::kMaxThreads);
   cli::OptimizeOptions o;
   auto has = [&](const char* k) { return kw.contains(k) && !kw[k].is_none(); };
   auto member = [&](const char* k, std::initializer_list<const char*> allowed) {
