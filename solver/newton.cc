@@ -549,9 +549,11 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   // not shorten it.
   //
   // On the loading path (opt.loadingPath), a state given at the full load is
-  // the equilibrium of a nearby design (an optimizer's warm start): Newton
-  // from it continues that equilibrium in the design, and is kept when it
-  // converges without meeting negative curvature. From any other state the
+  // the equilibrium of a nearby design, or an optimizer's approximation of
+  // one (a warm start): Newton from it continues that equilibrium in the
+  // design and is kept when it converges (to a stable state; whether that
+  // is the loading path's equilibrium is judged on the final design,
+  // solver/design_fallback.hh). From any other state the
   // full load is one step of the path from the state's load factor (rest:
   // 0), kept when it is on the path (onPath below); otherwise the load is
   // applied in adaptive steps.
@@ -581,25 +583,22 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   };
 
   Eigen::VectorXd uTry = u, tangent;
-  int metNegative = 0;
   const bool fullFromState = !path || warm;
   NewtonReport r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, fullFromState ? opt : stepOpt,
                                     deadline, hasDeadline, &tangent, path && !warm);
   merge(r);
-  metNegative += r.negativeIterations + r.escapes;
   for (int resume = 0; fullFromState && !r.converged && r.outcome == Outcome::MaxIterations && r.progressing &&
                        resume < opt.maxLoadHalvings;
        ++resume) {
     r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
     merge(r);
-    metNegative += r.negativeIterations + r.escapes;
-    total.resumes++;
+      total.resumes++;
   }
   bool accepted = false;
   if (!path)
     accepted = r.converged;
   else if (warm)
-    accepted = r.converged && metNegative == 0;
+    accepted = r.converged;
   else
     accepted = pathDeviation(r, u, uTry, tangent) >= 0.0;
   double reached = 1.0;

@@ -137,9 +137,11 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
 // negative pivot in the final factorization).
 //
 // A state given at the full load (state.loadFactor == 1: an optimizer's warm
-// start, the equilibrium of a nearby design) is continued in the design:
-// Newton from it, kept when it converges without meeting negative
-// curvature; otherwise the loading path from rest decides.
+// start, the equilibrium of a nearby design or SAND's approximation of one)
+// is continued in the design: Newton from it, kept when it converges to a
+// stable state; otherwise the loading path from rest decides. Whether a
+// design's continued equilibria are the loading path's is judged once, on
+// the design an optimizer archives (solver/design_fallback.hh).
 //
 // A structure with a zero-stiffness mode at rest (a mechanism) cannot be
 // loaded gradually (smaller loads need the same large motion): the full load
