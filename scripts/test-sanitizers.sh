@@ -36,7 +36,7 @@ cmake -S . -B "$build" -DRODMESH_SANITIZE=ON -DRODMESH_NATIVE=OFF -DCMAKE_BUILD_
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1" >/dev/null
 
 # The executables the subset runs (no benchmarks, no hard-case suite).
-subset_targets=(rodmesh_tests rodmesh rodmesh_cli_tests)
+subset_targets=(rodmesh_tests rodmesh rodmesh_cli_tests fuzz_optimize_replay)
 # (The list is read first: grep -q would end the pipe early, and pipefail
 # would then count the target as missing.)
 targets_help="$(cmake --build "$build" --target help)"
@@ -47,7 +47,7 @@ done
 subset='^('
 subset+='SceneReader|SceneReaderErrors|OptimizeValidation|SurfaceRead|SurfaceReader[A-Za-z]*'  # readers
 subset+='|Archive|ArchiveInterrupt|ArchiveInterruptDeathTest|ArchiveBuilderTest|BadArchiveCli'  # archive
-subset+='|FuzzRegressions'                                                                         # fuzz inputs
+subset+='|FuzzRegressions|FuzzReplay'                                                              # fuzz inputs
 subset+='|CliTest|MeshInputCli|RobustCli'                                                          # bad input
 subset+='|TaylorHelper|[A-Za-z]*/?TermDerivatives|JointKernels|ConnectionInvariance'              # derivatives
 subset+='|[A-Za-z]*/?HardConnection|[A-Za-z]*/?SandDerivatives|SandIpopt|[A-Za-z]*/?ReducedGradient|DesignSpace'
