@@ -76,6 +76,86 @@ TEST(DesignFallbacks, KeepBestFirstWithinTheirCapacitySpreadOverTheRun) {
   EXPECT_EQ(d[3].label, "design 0");
 }
 
+// A shallow arch (span 1 m, rise 5 cm, r = 5 mm, pinned ends, solved in its
+// plane) under 0.2 N at its crown, below its limit load (0.44 N): loaded
+// from rest it stays up. Its inverted equilibrium under the same design and
+// load is stable too. Targets on the inverted branch, radii free.
+Scene invertibleArch() {
+  const int n = 41;
+  const double span = 1.0, rise = 0.05, R = (span * span / 4 + rise * rise) / (2 * rise);
+  const double half = std::asin(span / 2 / R);
+  Scene s;
+  s.sourcePath = "<arch>";
+  s.material = Material{1e8, 0.4, 500.0};
+  Rod rod;
+  for (int i = 0; i < n; ++i) {
+    const double a = -half + 2 * half * i / (n - 1);
+    s.vertices.push_back(Vec3(R * std::sin(a), 0, R * std::cos(a) - (R - rise)));
+    rod.vertices.push_back(i);
+  }
+  s.rods.push_back(rod);
+  s.radii.assign(n, Vec2(0.005, 0.005));
+  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend};
+  Pose p;
+  p.name = "crown";
+  p.fixed = {{0, std::nullopt}, {n - 1, std::nullopt}};
+  p.forces.push_back({n / 2, Vec3(0, 0, -0.2)});
+  s.poses.push_back(p);
+  s.design.present = s.design.radii = true;
+  s.design.hasRadiusBounds = true;
+  s.design.radiusMin = 0.004;
+  s.design.radiusMax = 0.006;
+  return s;
+}
+
+// An optimizer that designed the inverted equilibrium (its own equilibria on
+// that branch, RMS 0.1 mm there) designed one the loaded arch never reaches:
+// the archived design is marked off the loading path, the gap (about twice
+// the rise) and the tolerance are reported, the archived positions are the
+// loading path's. The same design with the loading path's own equilibria is
+// on it.
+TEST(DesignFallback, DesignWhoseEquilibriaAreNotTheLoadingPathsIsMarkedOffThePath) {
+  Scene s = invertibleArch();
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  DesignOptimizerResult r;
+  r.controls = space.initialControls(s);
+  r.design = space.toDesign(r.controls);
+  PoseSystem& sys = model.pose(0);
+  // The inverted branch: Newton from the mirrored arch at the full load.
+  std::vector<Vec3> mirrored = s.vertices;
+  for (Vec3& x : mirrored) x.z() = -x.z();
+  PoseState inverted = sys.restState(r.design);
+  inverted.u = sys.dofsFrom(mirrored, Eigen::VectorXd());
+  inverted.loadFactor = 1.0;
+  ASSERT_TRUE(solveEquilibrium(sys, r.design, inverted, NewtonOptions{}).converged);
+  const std::vector<Vec3> down = sys.positions(inverted.u, r.design);
+  ASSERT_LT(down[20].z(), -0.04);
+  s.poses[0].target = down;
+  SceneModel targeted(s);
+  r.states = {inverted};
+  r.rms = 1e-4;
+  r.initialRms = 1e-4;
+  const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
+  ASSERT_TRUE(a.allConverged);
+  EXPECT_TRUE(a.offPath);
+  EXPECT_FALSE(a.fallback);
+  EXPECT_GT(a.gap, 0.08);
+  EXPECT_NEAR(a.gapTolerance, 1e-5, 1e-12) << "a tenth of the optimizer's RMS";
+  EXPECT_GT(a.simulation.poses[0].positions[20].z(), 0.0) << "archived: the loading path's equilibrium, up";
+  EXPECT_NE(a.note.find("loading path"), std::string::npos) << a.note;
+  EXPECT_GT(a.rms, 0.05);
+
+  // The loading path's own equilibrium as the optimizer's: on the path.
+  PoseState up = sys.restState(r.design);
+  ASSERT_TRUE(solveEquilibrium(sys, r.design, up, NewtonOptions{}).converged);
+  r.states = {up};
+  const ArchivedDesign b = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
+  EXPECT_FALSE(b.offPath) << b.note;
+  EXPECT_LT(b.gap, b.gapTolerance);
+  EXPECT_TRUE(b.note.empty()) << b.note;
+}
+
 TEST(DesignFallback, FinalDesignThatResolvesFromRestIsArchived) {
   Scene s = testutil::bentCantilever(2e-3);
   testutil::setScaledRadiiTargets(s, 0.9);
