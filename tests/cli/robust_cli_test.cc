@@ -229,6 +229,12 @@ TEST_F(RobustCli, SimulateFlagsNameFlagRangeAndTextAsTyped) {
 // ---- Memory.
 
 TEST_F(RobustCli, DesignTooLargeForMemoryIsExit2BeforeAllocating) {
+#if defined(__SANITIZE_ADDRESS__)
+  // AddressSanitizer reserves terabytes of shadow address space at start-up:
+  // an instrumented rodmesh cannot start under `ulimit -v` at all. The
+  // Release suite runs this case.
+  GTEST_SKIP() << "an AddressSanitizer build cannot run under an address-space limit";
+#endif
   // 200 control points per rod (2,983 in all) with radii and rest shape
   // free: 14,915 design values, under the dense limit of 20,000, a dense BFGS
   // matrix of 1.8 GB, under an address-space limit of 2 GiB.
