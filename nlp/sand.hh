@@ -31,6 +31,27 @@ struct SandOptions {
   // the working directory), in this order; checked by checkIpoptOption.
   std::vector<std::pair<std::string, std::string>> ipopt;
   bool readOptionsFile = true;  // read ./ipopt.opt when present
+  // A phase is diverging when `divergedIterates` iterates in a row are off
+  // equilibrium by more than `divergedLoads` times the largest pose load (N),
+  // or an iterate's dual infeasibility exceeds `divergedDualInfeasibility`.
+  // Far from equilibrium the linearised constraints are poor (a step that
+  // moves part of a sheet out of plane by an edge length changes edge
+  // lengths at second order), the iterates rarely come back and the KKT
+  // factorizations grow slower; runs that do recover leave it for single
+  // iterations only (docs/optimization.md, "SAND phases that diverge").
+  double divergedLoads = 100.0;
+  int divergedIterates = 3;
+  double divergedDualInfeasibility = 1e10;
+  // The retry of a diverged phase keeps its iterates within this 1-norm of
+  // the scaled constraints (Ipopt's theta_max_fact, default 1e4): steps that
+  // leave equilibrium further are cut by the filter line search.
+  double retryThetaMaxFact = 1e-2;
+  // Relative tolerance of a phase that a finer phase continues (radius
+  // levels before the last phase), or --tol if looser.
+  double handOverTolerance = 1e-3;
+  // Empty if valid (the optimizer's options, these, and every Ipopt option
+  // by checkIpoptOption), else what is wrong.
+  std::string isValid() const;
 };
 
 // Empty if Ipopt has an option `key` and `value` is valid for it (type and

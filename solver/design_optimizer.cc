@@ -1,5 +1,6 @@
 #include "solver/design_optimizer.hh"
 
+#include "solver/design_driver.hh"
 #include "solver/parallel.hh"
 
 #include <Eigen/SparseCholesky>
@@ -61,6 +62,14 @@ double TargetObjective::rms(double sumSquared) const {
   return n > 0 ? std::sqrt(sumSquared / n) : 0.0;
 }
 
+BfgsOptions reducedBfgsDefaults() {
+  BfgsOptions b;
+  b.initialMaxStep = 0.1;
+  b.minStep = 1e-9;
+  b.maxStepLimit = 10.0;
+  return b;
+}
+
 std::string DesignOptimizerOptions::isValid() const {
   if (maxIterations < 0) return "maximum iterations must be non-negative";
   if (!(timeLimit >= 0) || !std::isfinite(timeLimit)) return "time limit must be a non-negative number of seconds";
@@ -73,6 +82,7 @@ std::string DesignOptimizerOptions::isValid() const {
     return "relative decreases of a phase and of a round must lie in [0, 1)";
   if (stallWindow < 1 || !(stallRelativeDecrease >= 0 && stallRelativeDecrease < 1))
     return "the stall window must be at least 1 and its relative decrease in [0, 1)";
+  if (std::string why = bfgs.isValid(); !why.empty()) return "BFGS: " + why;
   return newton.isValid();
 }
 
@@ -369,141 +379,66 @@ long peakResidentMemory() {
   return static_cast<long>(ru.ru_maxrss) * 1024L;  // Linux: kilobytes
 }
 
-DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
-                                      const DesignOptimizerOptions& opt, const DesignProgress& progress) {
-  const auto t0 = Clock::now();
-  const Scene& scene = model.scene();
-  const TargetObjective objective(scene, model.effects());
-  DesignOptimizerResult res;
-  res.controls = space.initialControls(scene);
-  auto limitReached = [&] {
-    return (opt.stopRequested && opt.stopRequested()) || (opt.timeLimit > 0 && since(t0) >= opt.timeLimit);
-  };
-  const int finest = space.numLevels() - 1;
-  const bool radii = scene.design.radii, rest = scene.design.restShape;
+namespace {
 
-  // Equilibria of the initial design, from rest.
-  Design d0 = space.toDesign(res.controls);
-  std::vector<PoseState> states(model.numPoses());
-  for (int p = 0; p < model.numPoses(); ++p) states[p] = model.pose(p).restState(d0);
-  {
-    DesignPhase any{radii, rest && !radii, finest};
-    ReducedObjective ro(model, space, objective, any, res.controls, opt.newton, opt.threads, states);
-    double f;
-    if (!ro.evaluate(space.pack(any, res.controls), f, nullptr)) {
-      res.status = {Outcome::NumericalFailure,
-                    "no equilibrium under the initial design: the poses cannot be solved as given"};
-      // Newton solves stop at the run's limits too (NewtonOptions::cancel).
-      if (opt.stopRequested && opt.stopRequested()) res.status = {Outcome::Interrupted, "interrupted"};
-      else if (opt.timeLimit > 0 && since(t0) >= opt.timeLimit) res.status = {Outcome::TimeLimit, "time limit reached"};
-      res.design = d0;
-      res.timeSeconds = since(t0);
-      return res;
-    }
-    ro.accept(space.pack(any, res.controls));
-    states = ro.warmStates();
-    res.initialObjective = f;
-    res.initialRms = objective.rms(ro.lastSumSquared());
-    for (int p = 0; p < model.numPoses(); ++p) {
-      model.pose(p).setState(states[p]);
-      res.initialPositions.push_back(model.pose(p).positions(states[p].u, d0));
-    }
-  }
-  res.objective = res.initialObjective;
-  res.rms = res.initialRms;
-  res.history.push_back({0, 0, "initial", res.objective, res.rms, 0.0, 0.0, since(t0), 1});
-  if (progress) progress(res.history.back());
-  // The accepted iterates are equilibria on the optimizer's branch (warm
-  // starts); the monitor confirms them from rest on a second thread
-  // (solver/design_monitor.hh).
-  std::unique_ptr<DesignMonitor> monitor;
-  if (opt.confirmDesigns && res.initialObjective > 0)
-    monitor = std::make_unique<DesignMonitor>(scene, space, opt.newton, states, res.initialObjective, t0,
-                                              opt.onConfirmed);
+// The reduced method's phase: BFGS with a projected line search
+// (solver/bfgs.hh) on the phase's scaled variables, every evaluation solving
+// the equilibria (ReducedObjective).
+class ReducedPhaseSolver : public PhaseSolver {
+ public:
+  ReducedPhaseSolver(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt)
+      : model_(model), space_(space), opt_(opt), objective_(model.scene(), model.effects()) {}
 
-  const std::vector<DesignStep> steps = designSchedule(scene, space, opt);
+  bool iteratesAreEquilibria() const override { return true; }
 
-  Outcome stop = Outcome::Converged;
-  std::string message = "schedule completed";
-  int iterations = 0;
-  double roundStart = res.objective;  // objective at the start of the current round
-  int roundStartIteration = 0;
-  DesignFallbacks fallbacks;          // accepted iterates and phase ends (solver/design_fallback.hh)
-  for (std::size_t ph = 0; ph < steps.size(); ++ph) {
-    const DesignPhase& phase = steps[ph].phase;
-    const int round = steps[ph].round;
-    const bool lastPhase = ph + 1 == steps.size();
-    const int remaining = opt.maxIterations - iterations;
-    if (remaining <= 0) {
-      stop = Outcome::MaxIterations;
-      message = "iteration limit reached";
-      break;
-    }
-    const double elapsed = since(t0);
-    if (opt.timeLimit > 0 && elapsed >= opt.timeLimit) {
-      stop = Outcome::TimeLimit;
-      message = "time limit reached";
-      break;
-    }
-    if (round > 0 && phase.restShape) {
-      roundStart = res.objective;
-      roundStartIteration = iterations;
-    }
-    ReducedObjective ro(model, space, objective, phase, res.controls, opt.newton, opt.threads, states);
-    const Eigen::VectorXd s = designVariableScale(space, phase, scene);
-    if (opt.designDerivatives != DesignDerivatives::Exact) ro.setDesignDerivatives(opt.designDerivatives, s);
-    ro.setStop(limitReached);
+  PhaseResult solvePhase(const PhaseTask& task, PhaseContext& ctx) override {
+    const DesignPhase& phase = task.step.phase;
+    const Scene& scene = model_.scene();
+    PhaseResult out;
+    ReducedObjective ro(model_, space_, objective_, phase, task.controls, opt_.newton, opt_.threads, task.states);
+    const Eigen::VectorXd s = designVariableScale(space_, phase, scene);
+    if (opt_.designDerivatives != DesignDerivatives::Exact) ro.setDesignDerivatives(opt_.designDerivatives, s);
+    ro.setStop([&ctx] { return ctx.limitReached(); });
     Eigen::VectorXd lo, hi;
-    space.bounds(phase, lo, hi);
-    const Eigen::VectorXd y0 = space.pack(phase, res.controls).cwiseQuotient(s);
-    BfgsOptions bo;
+    space_.bounds(phase, lo, hi);
+    const Eigen::VectorXd y0 = space_.pack(phase, task.controls).cwiseQuotient(s);
+    BfgsOptions bo = opt_.bfgs;
     // Every phase stops on the gradient test, on the relative decrease over
     // a window, and on its cap (radius levels: maxLevelIterations; phases of
     // the alternation, the last one included: maxPhaseIterations); the last
     // phase of a schedule without alternation (joint, radii only, rest shape
     // only) is the whole rest of the run and only has the run's limits.
-    const int cap = round > 0 ? opt.maxPhaseIterations : lastPhase ? remaining : opt.maxLevelIterations;
-    bo.maxIterations = std::min(remaining, cap);
-    bo.timeLimit = opt.timeLimit > 0 ? std::max(1e-3, opt.timeLimit - elapsed) : 0.0;
-    bo.gradientTolerance = opt.tolerance;
-    bo.relativeDecrease = opt.phaseRelativeDecrease;
-    bo.stallWindow = opt.phaseWindow;
-    bo.initialMaxStep = 0.1;
-    bo.minStep = 1e-9;
-    bo.maxStepLimit = 10.0;
+    const int cap = task.step.round > 0 ? opt_.maxPhaseIterations
+                    : task.lastPhase    ? task.remainingIterations
+                                        : opt_.maxLevelIterations;
+    bo.maxIterations = std::min(task.remainingIterations, cap);
+    bo.timeLimit = opt_.timeLimit > 0 ? std::max(1e-3, ctx.remainingTime()) : 0.0;
+    bo.gradientTolerance = opt_.tolerance;
+    bo.relativeDecrease = opt_.phaseRelativeDecrease;
+    bo.stallWindow = opt_.phaseWindow;
     BfgsCallbacks cb;
     Eigen::VectorXd acceptedZ;  // the last accepted point (progress follows accepted)
     cb.accepted = [&](const Eigen::VectorXd& y) {
       acceptedZ = y.cwiseProduct(s);
       ro.accept(acceptedZ);
     };
-    // Targets met to round-off end the run (kTargetsMetRatio).
     bool targetsMet = false;
-    cb.stopRequested = [&] { return targetsMet || (opt.stopRequested && opt.stopRequested()); };
-    const int base = iterations;
-    const std::string stepName = describeStep(steps[ph]);
+    cb.stopRequested = [&] { return targetsMet || ctx.interrupted(); };
     cb.progress = [&](const BfgsIterate& it) {
       if (it.iteration == 0) return;  // the phase's start is the previous phase's end
       DesignIterate di;
-      di.iteration = base + it.iteration;
+      di.iteration = task.iterationBase + it.iteration;
       di.level = phase.level;
       di.phase = phaseName(phase);
       di.objective = it.f;
-      di.rms = objective.rms(ro.lastSumSquared());
+      di.rms = objective_.rms(ro.lastSumSquared());
       di.gradientNorm = it.projectedGradientNorm;
       di.step = it.step;
-      di.elapsed = since(t0);
+      di.elapsed = ctx.elapsed();
       di.evaluations = it.evaluations;
-      res.history.push_back(di);
-      if (acceptedZ.size() > 0) {
-        const ControlValues c = space.unpack(phase, acceptedZ, res.controls);
-        const std::string label = "the design of " + stepName + ", iteration " + std::to_string(di.iteration);
-        fallbacks.add(c, di.objective, di.rms, label);
-        if (monitor) monitor->offer(c, di.iteration, label);
-      }
-      if (monitor) monitor->bestSummary(di.confirmedRms, di.confirmedIteration);
-      targetsMet = di.objective <= kTargetsMetRatio * res.initialObjective;
-      if (progress) progress(di);
+      ControlValues c;
+      if (acceptedZ.size() > 0) c = space_.unpack(phase, acceptedZ, task.controls);
+      targetsMet = ctx.iterate(di, acceptedZ.size() > 0 ? &c : nullptr, true, true);
     };
     auto fobj = [&](const Eigen::VectorXd& y, double& f, Eigen::VectorXd* g) {
       const bool ok = ro.evaluate(y.cwiseProduct(s), f, g);
@@ -511,100 +446,53 @@ DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& spac
       return ok;
     };
     const BfgsResult br = minimizeBfgs(fobj, y0, lo.cwiseQuotient(s), hi.cwiseQuotient(s), bo, cb);
-    iterations += br.iterations;
-    res.evaluations += br.evaluations;
-    res.failedEvaluations += br.failedEvaluations;
-    res.equilibriumRestarts += ro.restarts();
-    res.evaluationSeconds += ro.evaluationSeconds();
-    if (std::isfinite(br.f) && br.f <= res.objective) {
-      res.controls = space.unpack(phase, br.x.cwiseProduct(s), res.controls);
-      res.objective = br.f;
-      // Warm starts for the next phase: the equilibria at the best point.
+    out.iterations = br.iterations;
+    out.evaluations = br.evaluations;
+    out.failedEvaluations = br.failedEvaluations;
+    out.equilibriumRestarts = ro.restarts();
+    if (std::isfinite(br.f)) {
+      // The best point with its equilibria (the objective caches the last
+      // evaluation; the best point is usually the last accepted one).
+      const Eigen::VectorXd z = br.x.cwiseProduct(s);
       double f;
-      if (ro.evaluate(br.x.cwiseProduct(s), f, nullptr)) ro.accept(br.x.cwiseProduct(s));
-      res.rms = objective.rms(ro.lastSumSquared());
-      fallbacks.add(res.controls, res.objective, res.rms,
-                    "the design at the end of " + stepName + " (iteration " + std::to_string(iterations) + ")");
+      if (ro.evaluate(z, f, nullptr)) {
+        ro.accept(z);
+        out.candidates.push_back({space_.unpack(phase, z, task.controls), ro.warmStates()});
+      }
     }
-    states = ro.warmStates();
+    out.evaluationSeconds = ro.evaluationSeconds();
     Outcome o = br.status.outcome;
     // A phase cut by the run's limits inside an evaluation (its line search
     // then fails) ends for that reason.
-    if (o != Outcome::Converged && limitReached())
-      o = opt.stopRequested && opt.stopRequested() ? Outcome::Interrupted : Outcome::TimeLimit;
-    if (targetsMet) {
-      stop = Outcome::Converged;
-      message = "every target met to round-off";
-      break;
+    if (o != Outcome::Converged && ctx.limitReached()) o = ctx.interrupted() ? Outcome::Interrupted : Outcome::TimeLimit;
+    out.message = br.status.message;
+    if (targetsMet) out.end = PhaseEnd::TargetsMet;
+    else if (o == Outcome::TimeLimit) out.end = PhaseEnd::TimeLimit;
+    else if (o == Outcome::Interrupted) out.end = PhaseEnd::Interrupted;
+    else if (o == Outcome::MaxIterations)
+      out.end = br.iterations >= task.remainingIterations ? PhaseEnd::IterationLimit : PhaseEnd::PhaseCap;
+    else if (o == Outcome::Stalled) out.end = PhaseEnd::Stalled;
+    else if (o == Outcome::Converged) out.end = PhaseEnd::Converged;
+    else {
+      out.end = PhaseEnd::Failed;
+      out.failure = o;
     }
-    if (o == Outcome::TimeLimit || o == Outcome::Interrupted || o == Outcome::NumericalFailure) {
-      stop = o;
-      // The phase's BFGS had what was left of --time-limit; name the user's.
-      message = o == Outcome::TimeLimit                                              ? "time limit reached"
-                : o == Outcome::Interrupted && br.status.outcome != Outcome::Interrupted ? "interrupted"
-                                                                                         : br.status.message;
-      break;
-    }
-    if (o == Outcome::MaxIterations && iterations >= opt.maxIterations) {
-      stop = Outcome::MaxIterations;
-      message = "iteration limit reached";
-      break;
-    }
-    // A round (rest shape, then radii) ends the run when it lowered the
-    // objective by less than roundRelativeDecrease, or the RMS by less than
-    // kMeaningfulRms of the initial design's.
-    if (round > 0 && phase.radii) {
-      const double gain = (roundStart - res.objective) / std::max(roundStart, 1e-300);
-      if (gain < opt.roundRelativeDecrease ||
-          !meaningfulGain(roundStart, res.objective, res.initialObjective, iterations - roundStartIteration)) {
-        char buf[240];
-        std::snprintf(buf, sizeof buf,
-                      "rest-shape/radii round %d lowered the objective by %.2g%% (less than %.2g%%, or the RMS by less "
-                      "than %.2g%% of the initial design's per iteration)",
-                      round, 100 * gain, 100 * opt.roundRelativeDecrease, 100 * kMeaningfulRmsPerIteration);
-        stop = Outcome::Converged;
-        message = buf;
-        break;
-      }
-      if (lastPhase) {
-        char buf[160];
-        std::snprintf(buf, sizeof buf, "alternation limit reached: round %d still lowered the objective by %.2g%%",
-                      round, 100 * gain);
-        stop = Outcome::MaxIterations;
-        message = buf;
-      }
-    } else if (lastPhase) {
-      stop = o == Outcome::Stalled ? Outcome::Converged : o;
-      message = br.status.message;
-    }
+    return out;
   }
 
-  if (monitor) {
-    monitor->stop();
-    if (adoptConfirmed(*monitor, stop, res, states, fallbacks))
-      message += "; the best design confirmed during the run (iteration " + std::to_string(monitor->best()->iteration) +
-                 ") is better than the last phase's and is the result";
-  }
-  res.design = space.toDesign(res.controls);
-  // The optimizer's own equilibria under the final design (warm started).
-  {
-    DesignPhase any{radii, rest && !radii, finest};
-    ReducedObjective ro(model, space, objective, any, res.controls, opt.newton, opt.threads, states);
-    double f;
-    if (ro.evaluate(space.pack(any, res.controls), f, nullptr)) {
-      ro.accept(space.pack(any, res.controls));
-      res.objective = f;
-      res.rms = objective.rms(ro.lastSumSquared());
-    }
-    res.states = ro.warmStates();
-  }
-  res.fallbacks = fallbacks.designs();
-  res.iterations = iterations;
-  res.status = {stop, message};
-  res.timeSeconds = since(t0);
-  res.solverSeconds = std::max(0.0, res.timeSeconds - res.evaluationSeconds);
-  res.peakMemoryBytes = peakResidentMemory();
-  return res;
+ private:
+  SceneModel& model_;
+  const DesignSpace& space_;
+  const DesignOptimizerOptions& opt_;
+  const TargetObjective objective_;
+};
+
+}  // namespace
+
+DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
+                                      const DesignOptimizerOptions& opt, const DesignProgress& progress) {
+  ReducedPhaseSolver solver(model, space, opt);
+  return runDesign(model, space, opt, solver, progress);
 }
 
 }  // namespace rodmesh

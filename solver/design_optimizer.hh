@@ -85,6 +85,8 @@ const char* designDerivativesName(DesignDerivatives d);  // "exact", "fd", "fd-r
 constexpr double fdForceStep = 6e-6;
 constexpr double fdResolveStep = 1e-4;
 
+BfgsOptions reducedBfgsDefaults();
+
 struct DesignOptimizerOptions {
   int maxIterations = 2000;    // optimizer iterations over the whole schedule (a limit, not the usual end:
                                // docs/optimization.md, "Stopping")
@@ -109,6 +111,12 @@ struct DesignOptimizerOptions {
   int stallWindow = 20;
   double stallRelativeDecrease = 1e-3;
   NewtonOptions newton;        // equilibrium solves
+  // The reduced method's BFGS (solver/bfgs.hh) on the scaled variables
+  // (designVariableScale: a step of 1 spans a radius bound range or a tenth
+  // of the mean rod length): steps start at 0.1 and never exceed 10; a line
+  // search gives up below 1e-9. Its iteration caps, time limit and stopping
+  // tests are set per phase from the fields above.
+  BfgsOptions bfgs = reducedBfgsDefaults();
   std::function<bool()> stopRequested;  // SIGINT
   // Re-solve the optimizer's designs on a second thread while it runs
   // (solver/design_monitor.hh): the run holds a design that re-solves from

@@ -1,0 +1,407 @@
+#include "solver/design_driver.hh"
+
+#include "solver/parallel.hh"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+namespace rodmesh {
+
+bool solvePosesFrom(SceneModel& model, const Design& d, std::vector<PoseState>& states, const NewtonOptions& newton,
+                    int threads) {
+  const int K = model.numPoses();
+  std::vector<char> ok(K, 0);
+  forEachPose(K, threads, [&](int k) {
+    try {
+      const NewtonReport r = solveEquilibrium(model.pose(k), d, states[k], newton);
+      ok[k] = r.converged && states[k].loadFactor == 1.0;
+    } catch (...) {
+      ok[k] = 0;
+    }
+  });
+  return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+}
+
+double objectiveOfStates(SceneModel& model, const TargetObjective& objective, const Design& d,
+                         const std::vector<PoseState>& states, double& f) {
+  double ss = 0.0;
+  f = 0.0;
+  for (int k = 0; k < model.numPoses(); ++k) {
+    double s = 0.0;
+    model.pose(k).setState(states[k]);
+    f += objective.pose(model.pose(k), states[k].u, d, nullptr, nullptr, &s);
+    ss += s;
+  }
+  return ss;
+}
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::string millimetres(double metres) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g mm", metres * 1e3);
+  return buf;
+}
+}  // namespace
+
+// The run's state; PhaseContext forwards to it.
+class DesignDriver {
+ public:
+  DesignDriver(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
+               const DesignProgress& progress)
+      : model_(model),
+        space_(space),
+        scene_(model.scene()),
+        opt_(opt),
+        progress_(progress),
+        objective_(scene_, model.effects()),
+        t0_(Clock::now()) {}
+
+  DesignOptimizerResult run(PhaseSolver& solver);
+
+  bool interrupted() const { return opt_.stopRequested && opt_.stopRequested(); }
+  bool timeUp() const { return opt_.timeLimit > 0 && since(t0_) >= opt_.timeLimit; }
+  double elapsed() const { return since(t0_); }
+  double remainingTime() const {
+    return opt_.timeLimit > 0 ? std::max(0.0, opt_.timeLimit - since(t0_)) : std::numeric_limits<double>::infinity();
+  }
+  const DesignOptimizerOptions& options() const { return opt_; }
+  double initialObjective() const { return res_.initialObjective; }
+
+  bool iterate(const PhaseTask& task, DesignIterate& it, const ControlValues* design, bool equilibrium,
+               bool settled) {
+    const std::string label = "the design of " + task.label + ", iteration " + std::to_string(it.iteration);
+    if (design) {
+      if (equilibrium) fallbacks_.add(*design, it.objective, it.rms, label);
+      if (monitor_) monitor_->offer(*design, it.iteration, label);
+    }
+    if (monitor_) monitor_->bestSummary(it.confirmedRms, it.confirmedIteration);
+    res_.history.push_back(it);
+    if (progress_) progress_(it);
+    return settled && it.objective <= kTargetsMetRatio * res_.initialObjective;
+  }
+
+ private:
+  DesignOptimizerResult finish(Outcome o, const std::string& message) {
+    res_.status = {o, message};
+    res_.timeSeconds = since(t0_);
+    res_.solverSeconds = std::max(0.0, res_.timeSeconds - res_.evaluationSeconds);
+    res_.peakMemoryBytes = peakResidentMemory();
+    return res_;
+  }
+  // Polishes the phase's candidates and keeps the better ones; returns the
+  // index of the candidate kept last (-1: none).
+  int keepCandidates(const PhaseTask& task, const PhaseResult& pr, int iterations);
+  // Re-solves the best design along the loading path from rest; when that
+  // equilibrium is not the one the optimizer holds, the run goes on from the
+  // loading-path state. True if it was off the path.
+  bool onLoadingPath(const PhaseTask& task, std::string& note);
+  double structureSize() const;
+
+  SceneModel& model_;
+  const DesignSpace& space_;
+  const Scene& scene_;
+  const DesignOptimizerOptions& opt_;
+  const DesignProgress& progress_;
+  const TargetObjective objective_;
+  const Clock::time_point t0_;
+  DesignOptimizerResult res_;
+  std::unique_ptr<DesignMonitor> monitor_;
+  DesignFallbacks fallbacks_;
+  std::vector<PoseState> states_;      // equilibria of the best design (Newton-polished): the next phase's start
+  std::vector<PoseState> optimizer_;   // the optimizer's own states of the best design (result.states)
+};
+
+bool PhaseContext::iterate(DesignIterate& it, const ControlValues* design, bool equilibrium, bool settled) {
+  return driver_.iterate(task_, it, design, equilibrium, settled);
+}
+bool PhaseContext::interrupted() const { return driver_.interrupted(); }
+bool PhaseContext::timeUp() const { return driver_.timeUp(); }
+double PhaseContext::elapsed() const { return driver_.elapsed(); }
+double PhaseContext::remainingTime() const { return driver_.remainingTime(); }
+double PhaseContext::initialObjective() const { return driver_.initialObjective(); }
+const DesignOptimizerOptions& PhaseContext::options() const { return driver_.options(); }
+
+double DesignDriver::structureSize() const {
+  if (scene_.vertices.empty()) return 0.0;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const Vec3& x : scene_.vertices) {
+    lo = std::min({lo, x.x(), x.y(), x.z()});
+    hi = std::max({hi, x.x(), x.y(), x.z()});
+  }
+  return hi - lo;
+}
+
+int DesignDriver::keepCandidates(const PhaseTask& task, const PhaseResult& pr, int iterations) {
+  int kept = -1;
+  for (std::size_t c = 0; c < pr.candidates.size(); ++c) {
+    const PhaseCandidate& cand = pr.candidates[c];
+    if (static_cast<int>(cand.states.size()) != model_.numPoses()) continue;
+    const Design d = space_.toDesign(cand.controls);
+    std::vector<PoseState> polished = cand.states;
+    const auto te = Clock::now();
+    const bool ok = solvePosesFrom(model_, d, polished, opt_.newton, opt_.threads);
+    res_.evaluationSeconds += since(te);
+    if (!ok) continue;
+    double f = 0.0;
+    const double ss = objectiveOfStates(model_, objective_, d, polished, f);
+    if (!std::isfinite(f) || !(kept >= 0 ? f < res_.objective : f <= res_.objective)) continue;
+    res_.controls = cand.controls;
+    res_.design = d;
+    res_.objective = f;
+    res_.rms = objective_.rms(ss);
+    states_ = std::move(polished);
+    optimizer_ = cand.states;
+    kept = static_cast<int>(c);
+    fallbacks_.add(cand.controls, f, res_.rms,
+                   "the design kept at the end of " + task.label + " (iteration " + std::to_string(iterations) + ")");
+  }
+  return kept;
+}
+
+bool DesignDriver::onLoadingPath(const PhaseTask& task, std::string& note) {
+  // Along the loading path from rest (solver/newton.hh), as `rodmesh
+  // simulate` and the archive solve the design.
+  std::vector<PoseState> path(model_.numPoses());
+  for (int k = 0; k < model_.numPoses(); ++k) path[k] = model_.pose(k).restState(res_.design);
+  const auto te = Clock::now();
+  const bool ok = solvePosesFrom(model_, res_.design, path, opt_.newton, opt_.threads);
+  res_.evaluationSeconds += since(te);
+  // A design that does not re-solve from rest is the archive's business
+  // (fallback designs); the optimizer's equilibria are all there is to go on.
+  if (!ok) return false;
+  const double tolerance = designedEquilibriumTolerance(res_.rms, structureSize());
+  double gap = 0.0;
+  int worst = 0;
+  for (int k = 0; k < model_.numPoses(); ++k) {
+    const PoseSystem& sys = model_.pose(k);
+    const std::vector<Vec3> own = sys.positions(states_[k].u, res_.design);
+    const std::vector<Vec3> along = sys.positions(path[k].u, res_.design);
+    for (std::size_t v = 0; v < own.size() && v < along.size(); ++v) {
+      const double g = (own[v] - along[v]).norm();
+      if (g > gap) {
+        gap = g;
+        worst = k;
+      }
+    }
+  }
+  if (!(gap > tolerance)) return false;
+  double f = 0.0;
+  const double ss = objectiveOfStates(model_, objective_, res_.design, path, f);
+  note = "at the end of " + task.label + " pose '" + scene_.poses[worst].name + "' as loaded from rest lies " +
+         millimetres(gap) + " from the optimizer's equilibrium (tolerance " + millimetres(tolerance) +
+         "): the run goes on from the loading path's equilibria (RMS " + millimetres(res_.rms) + " -> " +
+         millimetres(objective_.rms(ss)) + ")";
+  res_.objective = f;
+  res_.rms = objective_.rms(ss);
+  states_ = path;
+  optimizer_ = path;
+  return true;
+}
+
+DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
+  const int K = model_.numPoses();
+  res_.controls = space_.initialControls(scene_);
+  const Design d0 = space_.toDesign(res_.controls);
+  res_.design = d0;
+
+  // The initial design's equilibria, from rest.
+  states_.resize(K);
+  for (int k = 0; k < K; ++k) states_[k] = model_.pose(k).restState(d0);
+  {
+    const auto te = Clock::now();
+    const bool ok = solvePosesFrom(model_, d0, states_, opt_.newton, opt_.threads);
+    res_.evaluationSeconds += since(te);
+    if (!ok) {
+      // Newton solves stop at the run's limits too (NewtonOptions::cancel).
+      if (interrupted()) return finish(Outcome::Interrupted, "interrupted");
+      if (timeUp()) return finish(Outcome::TimeLimit, "time limit reached");
+      return finish(Outcome::NumericalFailure,
+                    "no equilibrium under the initial design: the poses cannot be solved as given");
+    }
+  }
+  double f0 = 0.0;
+  const double ss0 = objectiveOfStates(model_, objective_, d0, states_, f0);
+  res_.initialObjective = res_.objective = f0;
+  res_.initialRms = res_.rms = objective_.rms(ss0);
+  for (int k = 0; k < K; ++k) res_.initialPositions.push_back(model_.pose(k).positions(states_[k].u, d0));
+  optimizer_ = states_;
+  res_.states = states_;
+  {
+    DesignIterate it;
+    it.phase = "initial";
+    it.objective = f0;
+    it.rms = res_.rms;
+    it.elapsed = since(t0_);
+    it.evaluations = 1;
+    res_.history.push_back(it);
+    if (progress_) progress_(it);
+  }
+  if (!(f0 > 0)) return finish(Outcome::Converged, "the initial design meets every target");
+  if (std::string why = solver.prepare(states_, f0); !why.empty()) return finish(Outcome::InvalidProblem, why);
+  // The optimizer's designs are re-solved on a second thread, so that a
+  // design that re-solves from rest is at hand at every moment.
+  if (opt_.confirmDesigns)
+    monitor_ = std::make_unique<DesignMonitor>(scene_, space_, opt_.newton, states_, f0, t0_, opt_.onConfirmed);
+
+  const std::vector<DesignStep> steps = designSchedule(scene_, space_, opt_);
+  Outcome stop = Outcome::Converged;
+  std::string message = "schedule completed";
+  std::vector<std::string> notes;  // what the phase ends did besides keeping designs
+  int iterations = 0;
+  double roundStart = res_.objective;
+  int roundStartIteration = 0;
+  int attempt = 0;        // retries of the current phase (divergence, off the loading path)
+  int phaseIndex = 0;
+  for (std::size_t ph = 0; ph < steps.size(); ++ph) {
+    const DesignStep& step = steps[ph];
+    if (step.round > 0 && step.phase.restShape && attempt == 0) {
+      roundStart = res_.objective;
+      roundStartIteration = iterations;
+    }
+    const int remaining = opt_.maxIterations - iterations;
+    if (remaining <= 0) {
+      stop = Outcome::MaxIterations;
+      message = "iteration limit reached";
+      break;
+    }
+    if (timeUp()) {
+      stop = Outcome::TimeLimit;
+      message = "time limit reached";
+      break;
+    }
+    if (interrupted()) {
+      stop = Outcome::Interrupted;
+      message = "interrupted";
+      break;
+    }
+    if (space_.numFree(step.phase) == 0) continue;
+    PhaseTask task;
+    task.step = step;
+    task.index = phaseIndex++;
+    task.lastPhase = ph + 1 == steps.size();
+    task.handsOver = !task.lastPhase && step.round == 0;
+    task.iterationBase = iterations;
+    task.remainingIterations = remaining;
+    task.attempt = attempt;
+    task.controls = res_.controls;
+    task.states = states_;
+    task.objective = res_.objective;
+    task.label = describeStep(step);
+    PhaseContext context(*this, task);
+    const PhaseResult pr = solver.solvePhase(task, context);
+    iterations += pr.iterations;
+    res_.evaluations += pr.evaluations;
+    res_.failedEvaluations += pr.failedEvaluations;
+    res_.equilibriumRestarts += pr.equilibriumRestarts;
+    res_.evaluationSeconds += pr.evaluationSeconds;
+    const int kept = keepCandidates(task, pr, iterations);
+    solver.phaseEnded(kept);
+
+    if (pr.end == PhaseEnd::Diverged) {
+      // Run the phase again from the best design so far; the phase solver
+      // sees task.attempt = 1 and holds its iterates nearer equilibrium. A
+      // second divergence ends the run.
+      if (attempt < 1) {
+        ++attempt;
+        --ph;
+        continue;
+      }
+      stop = Outcome::Stalled;
+      message = "the iterates left equilibrium far behind in " + task.label +
+                ", also when held near equilibrium; the best design so far is the result";
+      break;
+    }
+    if (pr.end == PhaseEnd::TimeLimit || pr.end == PhaseEnd::Interrupted) {
+      stop = pr.end == PhaseEnd::Interrupted ? Outcome::Interrupted : Outcome::TimeLimit;
+      message = stop == Outcome::Interrupted ? "interrupted" : "time limit reached";
+      break;
+    }
+    if (pr.end == PhaseEnd::IterationLimit) {
+      stop = Outcome::MaxIterations;
+      message = "iteration limit reached";
+      break;
+    }
+    if (pr.end == PhaseEnd::Failed) {
+      stop = pr.failure;
+      message = pr.message + (kept >= 0 ? "" : "; the phase's design was not kept");
+      // A failed phase with a usable best design so far is not a failed run.
+      if (stop == Outcome::NumericalFailure && res_.objective < res_.initialObjective) stop = Outcome::Stalled;
+      break;
+    }
+    if (pr.end == PhaseEnd::TargetsMet || res_.objective <= kTargetsMetRatio * res_.initialObjective) {
+      message = "every target met to round-off";
+      break;
+    }
+    // The kept design's equilibria must be the ones reached along the
+    // loading path; otherwise the run continues from those (once per phase:
+    // the phase is run again from them when it was the schedule's last).
+    if (kept >= 0 && !interrupted() && !timeUp()) {
+      std::string note;
+      if (onLoadingPath(task, note)) {
+        notes.push_back(note);
+        if (task.lastPhase && attempt < 1) {
+          ++attempt;
+          --ph;
+          continue;
+        }
+        if (task.lastPhase) {
+          stop = Outcome::Stalled;
+          message = "the last phase's design was again off the loading path: " + note;
+          break;
+        }
+      }
+    }
+    attempt = 0;
+    if (task.lastPhase && !pr.message.empty() && pr.end != PhaseEnd::PhaseCap) message = pr.message;
+    // A round (rest shape, then radii) ends the run when it lowered the
+    // objective by less than roundRelativeDecrease, or the RMS by less than
+    // kMeaningfulRmsPerIteration of the initial design's per iteration.
+    if (step.round > 0 && step.phase.radii) {
+      const double gain = (roundStart - res_.objective) / std::max(roundStart, 1e-300);
+      if (gain < opt_.roundRelativeDecrease ||
+          !meaningfulGain(roundStart, res_.objective, res_.initialObjective, iterations - roundStartIteration)) {
+        char buf[240];
+        std::snprintf(buf, sizeof buf,
+                      "rest-shape/radii round %d lowered the objective by %.2g%% (less than %.2g%%, or the RMS by less "
+                      "than %.2g%% of the initial design's per iteration)",
+                      step.round, 100 * gain, 100 * opt_.roundRelativeDecrease, 100 * kMeaningfulRmsPerIteration);
+        message = buf;
+        break;
+      }
+      if (task.lastPhase) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "alternation limit reached: round %d still lowered the objective by %.2g%%",
+                      step.round, 100 * gain);
+        stop = Outcome::MaxIterations;
+        message = buf;
+      }
+    }
+  }
+
+  if (monitor_) {
+    monitor_->stop();
+    if (adoptConfirmed(*monitor_, stop, res_, optimizer_, fallbacks_))
+      message += "; the best design confirmed during the run (iteration " + std::to_string(monitor_->best()->iteration) +
+                 ") is better than the last phase's and is the result";
+  }
+  for (const std::string& n : notes) message += "; " + n;
+  res_.iterations = iterations;
+  res_.states = optimizer_;
+  res_.fallbacks = fallbacks_.designs();
+  return finish(stop, message);
+}
+
+DesignOptimizerResult runDesign(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& options,
+                                PhaseSolver& solver, const DesignProgress& progress) {
+  DesignDriver driver(model, space, options, progress);
+  return driver.run(solver);
+}
+
+}  // namespace rodmesh
