@@ -98,10 +98,17 @@ class DesignDriver {
   // Polishes the phase's candidates and keeps the better ones; returns the
   // index of the candidate kept last (-1: none).
   int keepCandidates(const PhaseTask& task, const PhaseResult& pr, int iterations);
-  // Re-solves the best design along the loading path from rest; when that
-  // equilibrium is not the one the optimizer holds, the run goes on from the
-  // loading-path state. True if it was off the path.
-  bool onLoadingPath(const PhaseTask& task, std::string& note);
+  // Re-solves the best design along the loading path from rest. True when
+  // that equilibrium is not the one the optimizer holds (farther than
+  // designedEquilibriumTolerance): `path` then holds the loading path's
+  // equilibria and `note` says what happened.
+  bool offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note);
+  // The run goes on from the loading path's equilibria of the best design.
+  void continueFromPath(std::vector<PoseState> path);
+  // Of the best design and the fallbacks, the one whose loading-path
+  // equilibria (from rest) have the lowest objective becomes the result,
+  // with those equilibria as the optimizer's. Returns its label.
+  std::string adoptBestOnPath();
   double structureSize() const;
 
   SceneModel& model_;
@@ -165,10 +172,10 @@ int DesignDriver::keepCandidates(const PhaseTask& task, const PhaseResult& pr, i
   return kept;
 }
 
-bool DesignDriver::onLoadingPath(const PhaseTask& task, std::string& note) {
+bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note) {
   // Along the loading path from rest (solver/newton.hh), as `rodmesh
   // simulate` and the archive solve the design.
-  std::vector<PoseState> path(model_.numPoses());
+  path.resize(model_.numPoses());
   for (int k = 0; k < model_.numPoses(); ++k) path[k] = model_.pose(k).restState(res_.design);
   const auto te = Clock::now();
   const bool ok = solvePosesFrom(model_, res_.design, path, opt_.newton, opt_.threads);
@@ -194,15 +201,58 @@ bool DesignDriver::onLoadingPath(const PhaseTask& task, std::string& note) {
   if (!(gap > tolerance)) return false;
   double f = 0.0;
   const double ss = objectiveOfStates(model_, objective_, res_.design, path, f);
-  note = "at the end of " + task.label + " pose '" + scene_.poses[worst].name + "' as loaded from rest lies " +
-         millimetres(gap) + " from the optimizer's equilibrium (tolerance " + millimetres(tolerance) +
-         "): the run goes on from the loading path's equilibria (RMS " + millimetres(res_.rms) + " -> " +
-         millimetres(objective_.rms(ss)) + ")";
+  note = "the design kept at the end of " + task.label + " has pose '" + scene_.poses[worst].name +
+         "' as loaded from rest " + millimetres(gap) + " from the optimizer's equilibrium (tolerance " +
+         millimetres(tolerance) + "; RMS " + millimetres(res_.rms) + " on the optimizer's equilibria, " +
+         millimetres(objective_.rms(ss)) + " on the loading path's)";
+  return true;
+}
+
+void DesignDriver::continueFromPath(std::vector<PoseState> path) {
+  double f = 0.0;
+  const double ss = objectiveOfStates(model_, objective_, res_.design, path, f);
   res_.objective = f;
   res_.rms = objective_.rms(ss);
   states_ = path;
-  optimizer_ = path;
-  return true;
+  optimizer_ = std::move(path);
+}
+
+std::string DesignDriver::adoptBestOnPath() {
+  std::vector<FallbackDesign> candidates = fallbacks_.designs();
+  std::string label = "the last phase's design";
+  double best = std::numeric_limits<double>::infinity();
+  {
+    // The current best design, whose path equilibria continueFromPath may
+    // have installed already.
+    std::vector<PoseState> path(model_.numPoses());
+    for (int k = 0; k < model_.numPoses(); ++k) path[k] = model_.pose(k).restState(res_.design);
+    if (solvePosesFrom(model_, res_.design, path, opt_.newton, opt_.threads)) {
+      continueFromPath(path);
+      best = res_.objective;
+    }
+  }
+  for (const FallbackDesign& c : candidates) {
+    if (interrupted() || timeUp()) break;
+    const Design d = space_.toDesign(c.controls);
+    std::vector<PoseState> path(model_.numPoses());
+    for (int k = 0; k < model_.numPoses(); ++k) path[k] = model_.pose(k).restState(d);
+    const auto te = Clock::now();
+    const bool ok = solvePosesFrom(model_, d, path, opt_.newton, opt_.threads);
+    res_.evaluationSeconds += since(te);
+    if (!ok) continue;
+    double f = 0.0;
+    const double ss = objectiveOfStates(model_, objective_, d, path, f);
+    if (!(f < best)) continue;
+    best = f;
+    label = c.label;
+    res_.controls = c.controls;
+    res_.design = d;
+    res_.objective = f;
+    res_.rms = objective_.rms(ss);
+    states_ = path;
+    optimizer_ = std::move(path);
+  }
+  return label;
 }
 
 DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
@@ -335,28 +385,36 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
       if (stop == Outcome::NumericalFailure && res_.objective < res_.initialObjective) stop = Outcome::Stalled;
       break;
     }
-    if (pr.end == PhaseEnd::TargetsMet || res_.objective <= kTargetsMetRatio * res_.initialObjective) {
-      message = "every target met to round-off";
-      break;
-    }
     // The kept design's equilibria must be the ones reached along the
     // loading path; otherwise the run continues from those (once per phase:
     // the phase is run again from them when it was the schedule's last).
-    if (kept >= 0 && !interrupted() && !timeUp()) {
-      std::string note;
-      if (onLoadingPath(task, note)) {
-        notes.push_back(note);
-        if (task.lastPhase && attempt < 1) {
+    // When the last phase ends off the path again, the result is the design
+    // of the run that does best as loaded from rest (adoptBestOnPath), with
+    // its loading path's equilibria, and the run is not converged.
+    std::vector<PoseState> path;
+    std::string note;
+    bool offPath = false;
+    if (kept >= 0 && !interrupted() && !timeUp() && offLoadingPath(task, path, note)) {
+      if (!task.lastPhase || attempt < 1) {
+        offPath = true;
+        notes.push_back(note + ": the run went on from the loading path's equilibria");
+        continueFromPath(std::move(path));
+        if (task.lastPhase) {
           ++attempt;
           --ph;
           continue;
         }
-        if (task.lastPhase) {
-          stop = Outcome::Stalled;
-          message = "the last phase's design was again off the loading path: " + note;
-          break;
-        }
+      } else {
+        stop = Outcome::Stalled;
+        const std::string adopted = adoptBestOnPath();
+        message = "the last phase ended off the loading path again (" + note + "); the result is " + adopted +
+                  ", the design of the run that does best as loaded from rest (RMS " + millimetres(res_.rms) + ")";
+        break;
       }
+    }
+    if ((pr.end == PhaseEnd::TargetsMet && !offPath) || res_.objective <= kTargetsMetRatio * res_.initialObjective) {
+      message = "every target met to round-off";
+      break;
     }
     attempt = 0;
     if (task.lastPhase && !pr.message.empty() && pr.end != PhaseEnd::PhaseCap) message = pr.message;

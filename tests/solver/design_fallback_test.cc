@@ -76,38 +76,6 @@ TEST(DesignFallbacks, KeepBestFirstWithinTheirCapacitySpreadOverTheRun) {
   EXPECT_EQ(d[3].label, "design 0");
 }
 
-// A shallow arch (span 1 m, rise 5 cm, r = 5 mm, pinned ends, solved in its
-// plane) under 0.2 N at its crown, below its limit load (0.44 N): loaded
-// from rest it stays up. Its inverted equilibrium under the same design and
-// load is stable too. Targets on the inverted branch, radii free.
-Scene invertibleArch() {
-  const int n = 41;
-  const double span = 1.0, rise = 0.05, R = (span * span / 4 + rise * rise) / (2 * rise);
-  const double half = std::asin(span / 2 / R);
-  Scene s;
-  s.sourcePath = "<arch>";
-  s.material = Material{1e8, 0.4, 500.0};
-  Rod rod;
-  for (int i = 0; i < n; ++i) {
-    const double a = -half + 2 * half * i / (n - 1);
-    s.vertices.push_back(Vec3(R * std::sin(a), 0, R * std::cos(a) - (R - rise)));
-    rod.vertices.push_back(i);
-  }
-  s.rods.push_back(rod);
-  s.radii.assign(n, Vec2(0.005, 0.005));
-  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend};
-  Pose p;
-  p.name = "crown";
-  p.fixed = {{0, std::nullopt}, {n - 1, std::nullopt}};
-  p.forces.push_back({n / 2, Vec3(0, 0, -0.2)});
-  s.poses.push_back(p);
-  s.design.present = s.design.radii = true;
-  s.design.hasRadiusBounds = true;
-  s.design.radiusMin = 0.004;
-  s.design.radiusMax = 0.006;
-  return s;
-}
-
 // An optimizer that designed the inverted equilibrium (its own equilibria on
 // that branch, RMS 0.1 mm there) designed one the loaded arch never reaches:
 // the archived design is marked off the loading path, the gap (about twice
@@ -115,7 +83,7 @@ Scene invertibleArch() {
 // loading path's. The same design with the loading path's own equilibria is
 // on it.
 TEST(DesignFallback, DesignWhoseEquilibriaAreNotTheLoadingPathsIsMarkedOffThePath) {
-  Scene s = invertibleArch();
+  Scene s = testutil::invertibleArch();
   SceneModel model(s);
   const DesignSpace space(s, model.effects());
   DesignOptimizerResult r;

@@ -87,4 +87,42 @@ NewtonOptions fallbackCaseNewton() {
   return o;
 }
 
+Scene invertibleArch() {
+  const int n = 41;
+  const double span = 1.0, rise = 0.05, R = (span * span / 4 + rise * rise) / (2 * rise);
+  const double half = std::asin(span / 2 / R);
+  Scene s;
+  s.sourcePath = "<arch>";
+  s.material = Material{1e8, 0.4, 500.0};
+  Rod rod;
+  for (int i = 0; i < n; ++i) {
+    const double a = -half + 2 * half * i / (n - 1);
+    s.vertices.push_back(Vec3(R * std::sin(a), 0, R * std::cos(a) - (R - rise)));
+    rod.vertices.push_back(i);
+  }
+  s.rods.push_back(rod);
+  s.radii.assign(n, Vec2(0.005, 0.005));
+  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend};
+  Pose p;
+  p.name = "crown";
+  p.fixed = {{0, std::nullopt}, {n - 1, std::nullopt}};
+  p.forces.push_back({n / 2, Vec3(0, 0, -0.2)});
+  s.poses.push_back(p);
+  s.design.present = s.design.radii = true;
+  s.design.hasRadiusBounds = true;
+  s.design.radiusMin = 0.004;
+  s.design.radiusMax = 0.006;
+  return s;
+}
+
+PoseState invertedArchState(const Scene& s, PoseSystem& sys, const Design& d) {
+  std::vector<Vec3> mirrored = s.vertices;
+  for (Vec3& x : mirrored) x.z() = -x.z();
+  PoseState inverted = sys.restState(d);
+  inverted.u = sys.dofsFrom(mirrored, Eigen::VectorXd());
+  inverted.loadFactor = 1.0;
+  solveEquilibrium(sys, d, inverted, NewtonOptions{});
+  return inverted;
+}
+
 }  // namespace rodmesh::testutil

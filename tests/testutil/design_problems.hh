@@ -44,6 +44,16 @@ Scene bentCantilever(double force);
 Scene fallbackCase();
 NewtonOptions fallbackCaseNewton();
 
+// A shallow arch (span 1 m, rise 5 cm, r = 5 mm, pinned ends, solved in its
+// plane) under 0.2 N at its crown (vertex 20 of 41), below its limit load
+// (0.44 N): loaded from rest it stays up. Its inverted equilibrium under the
+// same design and load is stable too. Radii free in [4, 6] mm; targets unset
+// (the rest positions).
+Scene invertibleArch();
+// The arch `s`'s inverted equilibrium under `d` (Newton from the mirrored arch
+// at the full load), as a state of `sys`.
+PoseState invertedArchState(const Scene& s, PoseSystem& sys, const Design& d);
+
 // A small hexagonal sheet (meshing/grid, 2 x 2 cells, 0.06 m) clamped along
 // its left side; poses: "sag" (gravity), "lift" (right corner pulled and
 // lifted) and, with poses = 3, "twist" (the other right corner pulled down

@@ -1,0 +1,238 @@
+// The one design driver (solver/design_driver.hh): what it does with the
+// phase results of a scripted phase solver (phase ends, retries, failures,
+// targets met, designs off the loading path), and what a real reduced run
+// makes of a design problem whose optimizer equilibria leave the loading
+// path (the shallow arch of testutil::invertibleArch).
+#include "solver/design_driver.hh"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <functional>
+
+#include "model/design_space.hh"
+#include "solver/design_fallback.hh"
+#include "tests/testutil/design_problems.hh"
+
+namespace rodmesh {
+namespace {
+
+// A phase solver that returns what the test scripts, and records its tasks.
+class ScriptedPhases : public PhaseSolver {
+ public:
+  std::function<PhaseResult(const PhaseTask&, PhaseContext&)> script;
+  std::vector<PhaseTask> tasks;
+  bool iteratesAreEquilibria() const override { return true; }
+  PhaseResult solvePhase(const PhaseTask& task, PhaseContext& context) override {
+    tasks.push_back(task);
+    return script(task, context);
+  }
+};
+
+DesignOptimizerOptions driverOptions() {
+  DesignOptimizerOptions o;
+  o.confirmDesigns = false;  // deterministic: no second thread
+  o.schedule = Schedule::Joint;
+  return o;
+}
+
+// A cantilever whose targets come from a design with 0.6 times its radii.
+struct Cantilever {
+  Scene scene = testutil::fallbackCase();
+  SceneModel model{scene};
+  DesignSpace space{scene, model.effects()};
+  ControlValues thinner(double scale) const {
+    ControlValues c = space.initialControls(scene);
+    c.radii *= scale;
+    return c;
+  }
+  // Equilibria of `c` from rest.
+  std::vector<PoseState> equilibria(const ControlValues& c) {
+    const Design d = space.toDesign(c);
+    std::vector<PoseState> s;
+    for (int k = 0; k < model.numPoses(); ++k) s.push_back(model.pose(k).restState(d));
+    EXPECT_TRUE(solvePosesFrom(model, d, s, NewtonOptions{}, 1));
+    return s;
+  }
+};
+
+TEST(DesignDriver, KeepsABetterCandidateAndNotAWorseOne) {
+  Cantilever c;
+  ScriptedPhases phases;
+  const ControlValues better = c.thinner(0.8), worse = c.thinner(1.3);
+  phases.script = [&](const PhaseTask&, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 3;
+    // The worse one first: not kept; the better one is.
+    r.candidates.push_back({worse, c.equilibria(worse)});
+    r.candidates.push_back({better, c.equilibria(better)});
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(c.model, c.space, driverOptions(), phases);
+  ASSERT_EQ(phases.tasks.size(), 1u);
+  EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
+  EXPECT_TRUE(sameControls(r.controls, better));
+  EXPECT_LT(r.objective, r.initialObjective);
+  EXPECT_EQ(r.iterations, 3);
+  ASSERT_EQ(r.fallbacks.size(), 1u) << "the kept design joins the fallbacks";
+}
+
+TEST(DesignDriver, RetriesADivergedPhaseOnceThenStops) {
+  Cantilever c;
+  ScriptedPhases phases;
+  phases.script = [&](const PhaseTask&, PhaseContext&) {
+    PhaseResult r;
+    r.end = PhaseEnd::Diverged;
+    r.iterations = 2;
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(c.model, c.space, driverOptions(), phases);
+  ASSERT_EQ(phases.tasks.size(), 2u);
+  EXPECT_EQ(phases.tasks[0].attempt, 0);
+  EXPECT_EQ(phases.tasks[1].attempt, 1);
+  EXPECT_EQ(phases.tasks[1].iterationBase, 2);
+  EXPECT_EQ(r.status.outcome, Outcome::Stalled);
+  EXPECT_NE(r.status.message.find("left equilibrium"), std::string::npos) << r.status.message;
+  EXPECT_TRUE(sameControls(r.controls, c.space.initialControls(c.scene)));
+}
+
+TEST(DesignDriver, AFailedPhaseIsAFailedRunOnlyWithoutABetterDesign) {
+  for (const bool improved : {false, true}) {
+    Cantilever c;
+    ScriptedPhases phases;
+    phases.script = [&](const PhaseTask&, PhaseContext&) {
+      PhaseResult r;
+      r.end = PhaseEnd::Failed;
+      r.message = "scripted failure";
+      if (improved) r.candidates.push_back({c.thinner(0.8), c.equilibria(c.thinner(0.8))});
+      return r;
+    };
+    const DesignOptimizerResult r = runDesign(c.model, c.space, driverOptions(), phases);
+    EXPECT_EQ(r.status.outcome, improved ? Outcome::Stalled : Outcome::NumericalFailure) << r.status.message;
+    EXPECT_EQ(r.status.message.find("scripted failure"), 0u) << r.status.message;
+    EXPECT_EQ(r.status.message.find("was not kept") != std::string::npos, !improved) << r.status.message;
+  }
+}
+
+TEST(DesignDriver, TargetsMetEndTheScheduleEarly) {
+  Cantilever c;
+  ScriptedPhases phases;
+  DesignOptimizerOptions o = driverOptions();
+  o.schedule = Schedule::Paper;  // radius levels: several phases
+  const ControlValues hidden = c.thinner(0.6);  // the targets' design
+  phases.script = [&](const PhaseTask& task, PhaseContext& ctx) {
+    PhaseResult r;
+    r.iterations = 1;
+    DesignIterate it;
+    it.iteration = task.iterationBase + 1;
+    it.objective = 0.0;
+    EXPECT_TRUE(ctx.iterate(it, &hidden, true, true)) << "an objective of 0 meets every target";
+    r.end = PhaseEnd::TargetsMet;
+    r.candidates.push_back({hidden, c.equilibria(hidden)});
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(c.model, c.space, o, phases);
+  ASSERT_GT(designSchedule(c.scene, c.space, o).size(), 1u);
+  EXPECT_EQ(phases.tasks.size(), 1u);
+  EXPECT_EQ(r.status.outcome, Outcome::Converged);
+  EXPECT_EQ(r.status.message, "every target met to round-off");
+  EXPECT_LT(r.objective, 1e-12 * r.initialObjective);
+  EXPECT_EQ(r.history.size(), 2u) << "initial + the scripted iterate";
+}
+
+TEST(DesignDriver, LimitsStopBetweenPhases) {
+  Cantilever c;
+  ScriptedPhases phases;
+  DesignOptimizerOptions o = driverOptions();
+  o.schedule = Schedule::Paper;
+  bool stop = false;
+  o.stopRequested = [&] { return stop; };
+  phases.script = [&](const PhaseTask&, PhaseContext& ctx) {
+    PhaseResult r;
+    r.iterations = 1;
+    stop = true;  // a signal arrives during the first phase, which ends by its own test
+    EXPECT_TRUE(ctx.limitReached());
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(c.model, c.space, o, phases);
+  EXPECT_EQ(phases.tasks.size(), 1u);
+  EXPECT_EQ(r.status.outcome, Outcome::Interrupted);
+}
+
+// A phase whose design is the arch's own but whose equilibrium is the
+// inverted one (what an optimizer holds after continuation across the snap):
+// the loaded arch never reaches it. The driver notices at the phase end, runs
+// the last phase again from the loading path's equilibrium (the arch up), and
+// when the phase ends off the path a second time, the run is not converged
+// and keeps the optimizer's equilibria, so that the archive marks the design
+// off the path.
+TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
+  Scene s = testutil::invertibleArch();
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  const ControlValues c0 = space.initialControls(s);
+  const Design d0 = space.toDesign(c0);
+  const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
+  const std::vector<Vec3> down = model.pose(0).positions(inverted.u, d0);
+  ASSERT_LT(down[20].z(), -0.04);
+  // Targets: the inverted arch 1 mm lower still, so that the inverted
+  // equilibrium is much better than the arch up but not exact.
+  s.poses[0].target = down;
+  for (Vec3& x : s.poses[0].target) x.z() -= 1e-3;
+  SceneModel targeted(s);
+  ScriptedPhases phases;
+  phases.script = [&](const PhaseTask&, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 5;
+    r.candidates.push_back({c0, {inverted}});
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
+  ASSERT_EQ(phases.tasks.size(), 2u) << r.status.message;
+  EXPECT_GT(phases.tasks[0].states[0].u.size(), 0);
+  // The second attempt starts from the loading path's equilibrium: the arch up.
+  const std::vector<Vec3> start = targeted.pose(0).positions(phases.tasks[1].states[0].u, d0);
+  EXPECT_GT(start[20].z(), 0.0);
+  const double invertedObjective = 0.5 * 41 * 1e-6;  // every vertex 1 mm off
+  EXPECT_GT(phases.tasks[1].objective, 100 * invertedObjective) << "the path's objective, not the inverted one's";
+  EXPECT_DOUBLE_EQ(r.objective, phases.tasks[1].objective) << "the result: the design with the path's equilibria";
+  EXPECT_EQ(r.status.outcome, Outcome::Stalled);
+  EXPECT_NE(r.status.message.find("off the loading path"), std::string::npos) << r.status.message;
+  EXPECT_NE(r.status.message.find("as loaded from rest"), std::string::npos) << r.status.message;
+  // The result's equilibria are the loading path's: the arch up.
+  const std::vector<Vec3> own = targeted.pose(0).positions(r.states[0].u, d0);
+  EXPECT_GT(own[20].z(), 0.0);
+  const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
+  EXPECT_FALSE(a.offPath) << a.note;
+}
+
+// The same targets with a real reduced run, radii free in [4, 6] mm: at
+// 4 mm the arch's limit load is below 0.2 N (EI ~ r^4: 0.41 x 0.44 N), so
+// thin designs snap through when loaded from rest. Whatever branch the
+// optimizer follows, a converged run's equilibria are its loading path's,
+// and the design archived re-solves from rest on the inverted side.
+TEST(DesignDriver, ReducedRunOnTheArchEndsOnTheLoadingPath) {
+  Scene s = testutil::invertibleArch();
+  {
+    SceneModel model(s);
+    const DesignSpace space(s, model.effects());
+    const Design d0 = space.toDesign(space.initialControls(s));
+    const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
+    s.poses[0].target = model.pose(0).positions(inverted.u, d0);
+  }
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  DesignOptimizerOptions o;
+  o.confirmDesigns = false;
+  const DesignOptimizerResult r = optimizeReduced(model, space, o);
+  const ArchivedDesign a = chooseArchivedDesign(model, space, r, NewtonOptions{});
+  ASSERT_TRUE(a.allConverged);
+  if (r.status.outcome == Outcome::Converged) EXPECT_FALSE(a.offPath) << r.status.message << "; " << a.note;
+  EXPECT_LT(a.simulation.poses[0].positions[20].z(), 0.0) << r.status.message << "; " << a.note;
+  EXPECT_LT(a.rms, 0.2 * r.initialRms) << r.status.message << "; " << a.note;
+  std::printf("arch, reduced: %s, %s; archived RMS %.3g mm (initial %.3g mm)\n", outcomeName(r.status.outcome),
+              r.status.message.c_str(), a.rms * 1e3, r.initialRms * 1e3);
+}
+
+}  // namespace
+}  // namespace rodmesh
