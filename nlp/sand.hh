@@ -6,15 +6,11 @@
 //
 // This header does not include Ipopt; nothing outside nlp/ does.
 //
-// A run: equilibria of the initial design by Newton (the starting point),
-// then one Ipopt solve per schedule phase (the same schedule as the reduced
-// method, solver/design_optimizer.hh), each started from the previous phase's
-// design and equilibria. After every phase the poses are re-solved by Newton
-// from Ipopt's positions under Ipopt's design; the phase's design is kept only
-// if those equilibria exist and the objective did not rise, so the result is
-// always the best design found, with true equilibria. The kept phase designs
-// are the run's fallbacks (solver/design_fallback.hh) should the final one not
-// re-solve from rest.
+// A run is the design driver's (solver/design_driver.hh): the schedule,
+// limits, phase ends, fallbacks and outcome are written there once. SAND's
+// part is the phase: one Ipopt solve started from the best design so far and
+// its equilibria, whose final point and best nearly feasible iterate the
+// driver polishes by Newton and keeps when the objective did not rise.
 #pragma once
 
 #include "solver/design_optimizer.hh"
@@ -49,6 +45,17 @@ struct SandOptions {
   // Relative tolerance of a phase that a finer phase continues (radius
   // levels before the last phase), or --tol if looser.
   double handOverTolerance = 1e-3;
+  // The first phase starts with at most this many iterations of the reduced
+  // method's BFGS on the same variables (0: none), ending earlier when
+  // `warmupWindow` iterations lowered the objective by less than
+  // `warmupRelativeDecrease` of its value; Ipopt then continues the phase from
+  // the best design found. Every BFGS iterate is an equilibrium and the first
+  // steps are the large ones, so the run holds a good design within seconds,
+  // where Ipopt's first iterates leave equilibrium and regain it only after
+  // tens of iterations (docs/optimization.md, "SAND's first phase").
+  int warmupIterations = 10;
+  int warmupWindow = 2;
+  double warmupRelativeDecrease = 0.1;
   // Empty if valid (the optimizer's options, these, and every Ipopt option
   // by checkIpoptOption), else what is wrong.
   std::string isValid() const;

@@ -17,6 +17,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -296,7 +297,13 @@ namespace {
 class SandPhaseSolver : public PhaseSolver {
  public:
   SandPhaseSolver(SceneModel& model, const DesignSpace& space, const SandOptions& so)
-      : model_(model), space_(space), so_(so), opt_(so.optimizer), objective_(model.scene(), model.effects()) {}
+      : model_(model), space_(space), so_(so), opt_(so.optimizer), objective_(model.scene(), model.effects()) {
+    warmupOptions_ = opt_;
+    warmupOptions_.maxLevelIterations = std::max(1, so.warmupIterations);
+    warmupOptions_.phaseWindow = std::max(1, so.warmupWindow);
+    warmupOptions_.phaseRelativeDecrease = so.warmupRelativeDecrease;
+    warmup_ = makeReducedPhaseSolver(model, space, warmupOptions_);
+  }
 
   bool iteratesAreEquilibria() const override { return false; }
   std::string prepare(const std::vector<PoseState>& states, double f0) override;
@@ -325,6 +332,10 @@ class SandPhaseSolver : public PhaseSolver {
   std::vector<double> warmLambda_, finalLambda_;  // the kept phase's constraint multipliers, the last phase's
   double warmObjectiveScale_ = 1.0, phaseObjectiveScale_ = 1.0;
   int finalCandidate_ = -1;
+  DesignOptimizerOptions warmupOptions_;    // the first phase's BFGS start
+  std::unique_ptr<PhaseSolver> warmup_;
+  // Ipopt's part of a phase, from `task`'s design.
+  PhaseResult solveWithIpopt(const PhaseTask& task, PhaseContext& ctx);
 };
 
 std::string SandPhaseSolver::prepare(const std::vector<PoseState>&, double f0) {
@@ -393,6 +404,52 @@ std::string SandPhaseSolver::prepare(const std::vector<PoseState>&, double f0) {
 }
 
 PhaseResult SandPhaseSolver::solvePhase(const PhaseTask& task, PhaseContext& ctx) {
+  if (task.index > 0 || task.attempt > 0 || so_.warmupIterations <= 0) return solveWithIpopt(task, ctx);
+  // The first phase: BFGS first (SandOptions::warmupIterations), as a phase
+  // the schedule continues, so that its own cap applies.
+  PhaseTask start = task;
+  start.lastPhase = false;
+  start.handsOver = true;
+  start.remainingIterations = std::min(task.remainingIterations, so_.warmupIterations);
+  PhaseResult warm = warmup_->solvePhase(start, ctx);
+  if (warm.end == PhaseEnd::TimeLimit || warm.end == PhaseEnd::Interrupted || warm.end == PhaseEnd::TargetsMet ||
+      warm.iterations >= task.remainingIterations) {
+    if (warm.end == PhaseEnd::PhaseCap || warm.end == PhaseEnd::IterationLimit) warm.end = PhaseEnd::IterationLimit;
+    finalCandidate_ = -1;
+    return warm;
+  }
+  // Ipopt continues the phase from the best design the BFGS start found
+  // (its equilibria, re-solved by Newton: ReducedObjective's states are
+  // equilibria already, so this is one residual check per pose).
+  PhaseTask rest = task;
+  rest.iterationBase = task.iterationBase + warm.iterations;
+  rest.remainingIterations = task.remainingIterations - warm.iterations;
+  if (!warm.candidates.empty()) {
+    std::vector<PoseState> states = warm.candidates.front().states;
+    const Design d = space_.toDesign(warm.candidates.front().controls);
+    if (solvePosesFrom(model_, d, states, opt_.newton, opt_.threads)) {
+      double f = 0.0;
+      objectiveOfStates(model_, objective_, d, states, f);
+      if (std::isfinite(f) && f <= task.objective) {
+        rest.controls = warm.candidates.front().controls;
+        rest.states = std::move(states);
+        rest.objective = f;
+      }
+    }
+  }
+  PhaseResult out = solveWithIpopt(rest, ctx);
+  out.iterations += warm.iterations;
+  out.evaluations += warm.evaluations;
+  out.failedEvaluations += warm.failedEvaluations;
+  out.equilibriumRestarts += warm.equilibriumRestarts;
+  out.evaluationSeconds += warm.evaluationSeconds;
+  // The BFGS start's design stays a candidate (after Ipopt's), in case
+  // Ipopt ends worse.
+  for (PhaseCandidate& c : warm.candidates) out.candidates.push_back(std::move(c));
+  return out;
+}
+
+PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext& ctx) {
   const DesignPhase& phase = task.step.phase;
   const Scene& scene = model_.scene();
   const int K = model_.numPoses();
@@ -600,6 +657,8 @@ std::string SandOptions::isValid() const {
   if (!(retryThetaMaxFact > 0) || !std::isfinite(retryThetaMaxFact))
     return "SAND: theta_max_fact of a retried phase must be positive";
   if (!(handOverTolerance > 0 && handOverTolerance < 1)) return "SAND: the hand-over tolerance must lie in (0, 1)";
+  if (warmupIterations < 0 || warmupWindow < 1 || !(warmupRelativeDecrease >= 0 && warmupRelativeDecrease < 1))
+    return "SAND: the BFGS start needs iterations >= 0, a window >= 1 and a relative decrease in [0, 1)";
   for (const auto& [key, value] : ipopt)
     if (std::string why = checkIpoptOption(key, value); !why.empty()) return why;
   return optimizer.isValid();

@@ -127,6 +127,12 @@ class PhaseSolver {
   virtual bool iteratesAreEquilibria() const = 0;
 };
 
+// The reduced method's phase solver (BFGS on the reduced objective,
+// solver/design_optimizer.cc); `options` must outlive it. SAND also uses it
+// to start its first phase (SandOptions::warmupIterations).
+std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(SceneModel& model, const DesignSpace& space,
+                                                    const DesignOptimizerOptions& options);
+
 // Runs the schedule of `options` with `solver` and returns the run's result
 // (solver/design_optimizer.hh).
 DesignOptimizerResult runDesign(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& options,

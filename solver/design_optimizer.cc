@@ -489,6 +489,11 @@ class ReducedPhaseSolver : public PhaseSolver {
 
 }  // namespace
 
+std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(SceneModel& model, const DesignSpace& space,
+                                                    const DesignOptimizerOptions& options) {
+  return std::make_unique<ReducedPhaseSolver>(model, space, options);
+}
+
 DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
                                       const DesignOptimizerOptions& opt, const DesignProgress& progress) {
   ReducedPhaseSolver solver(model, space, opt);

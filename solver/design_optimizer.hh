@@ -13,7 +13,8 @@
 //   df/dz = J^T (df/dp - sum_k (dF_k/dp)^T lambda_k),  H_k lambda_k = df/du_k,
 // with exact design derivatives (PoseSystem::designForceProduct) and one
 // solve per pose with the equilibrium's Hessian. BFGS with a projected line
-// search (solver/bfgs.hh) drives z through the schedule: radii at levels
+// search (solver/bfgs.hh) drives z through each phase of the schedule, which
+// the design driver runs (solver/design_driver.hh): radii at levels
 // 0, 1, 2, then rounds of rest shape and radii at the finest level
 // (--schedule paper), or everything at once (--schedule joint). A phase ends
 // on the projected-gradient test, on a relative decrease of the objective

@@ -261,6 +261,7 @@ TEST(SandIpopt, DerivativeCheckerReportsNoErrors) {
     SandOptions o;
     o.optimizer.schedule = Schedule::Joint;
     o.optimizer.maxIterations = 1;
+    o.warmupIterations = 0;  // Ipopt from the first iteration
     o.readOptionsFile = false;
     const std::string out =
         (std::filesystem::temp_directory_path() / ("rodmesh_dercheck_" + std::to_string(planar) + "_" +
