@@ -334,7 +334,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     if (space_.numFree(step.phase) == 0) continue;
     PhaseTask task;
     task.step = step;
-    task.index = phaseIndex++;
+    task.index = attempt > 0 ? phaseIndex - 1 : phaseIndex++;  // a retry is the same phase
     task.lastPhase = ph + 1 == steps.size();
     task.handsOver = !task.lastPhase && step.round == 0;
     task.iterationBase = iterations;

@@ -91,6 +91,7 @@ TEST(DesignDriver, RetriesADivergedPhaseOnceThenStops) {
   EXPECT_EQ(phases.tasks[0].attempt, 0);
   EXPECT_EQ(phases.tasks[1].attempt, 1);
   EXPECT_EQ(phases.tasks[1].iterationBase, 2);
+  EXPECT_EQ(phases.tasks[1].index, 0) << "the retry is the same phase";
   EXPECT_EQ(r.status.outcome, Outcome::Stalled);
   EXPECT_NE(r.status.message.find("left equilibrium"), std::string::npos) << r.status.message;
   EXPECT_TRUE(sameControls(r.controls, c.space.initialControls(c.scene)));
