@@ -74,7 +74,11 @@ def run_process(cmd, log, timeout, sigint_after=None):
     t0 = time.perf_counter()
     res = dict(answered_in_s=None, timed_out=False)
     with open(log, "w") as lf:
-        p = subprocess.Popen(cmd, stdout=lf, stderr=subprocess.STDOUT)
+        # SIGINT at its default disposition in the child: a runner started in
+        # the background of a non-interactive shell (or under nohup) has it
+        # ignored, and rodmesh keeps ignored signals ignored.
+        p = subprocess.Popen(cmd, stdout=lf, stderr=subprocess.STDOUT,
+                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         t_int = None
         if sigint_after is not None:
             try:
