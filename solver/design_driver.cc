@@ -110,6 +110,15 @@ class DesignDriver {
   // with those equilibria as the optimizer's. Returns its label.
   std::string adoptBestOnPath();
   double structureSize() const;
+  // Newton from `states` under `d` (timed as model evaluations), then f and
+  // the RMS there; false when a pose fails or f is not finite.
+  bool solveAndScore(const Design& d, std::vector<PoseState>& states, double& f, double& rms);
+  // Every pose's rest state under `d` (Newton from there follows the
+  // loading path).
+  std::vector<PoseState> restStates(const Design& d) const;
+  // `controls` with its equilibria becomes the best design.
+  void adopt(const ControlValues& controls, const Design& d, double f, double rms, std::vector<PoseState> polished,
+             std::vector<PoseState> own);
 
   SceneModel& model_;
   const DesignSpace& space_;
@@ -145,6 +154,31 @@ double DesignDriver::structureSize() const {
   return hi - lo;
 }
 
+bool DesignDriver::solveAndScore(const Design& d, std::vector<PoseState>& states, double& f, double& rms) {
+  const auto te = Clock::now();
+  const bool ok = solvePosesFrom(model_, d, states, opt_.newton, opt_.threads);
+  res_.evaluationSeconds += since(te);
+  if (!ok) return false;
+  rms = objective_.rms(objectiveOfStates(model_, objective_, d, states, f));
+  return std::isfinite(f);
+}
+
+std::vector<PoseState> DesignDriver::restStates(const Design& d) const {
+  std::vector<PoseState> s(model_.numPoses());
+  for (int k = 0; k < model_.numPoses(); ++k) s[k] = model_.pose(k).restState(d);
+  return s;
+}
+
+void DesignDriver::adopt(const ControlValues& controls, const Design& d, double f, double rms,
+                         std::vector<PoseState> polished, std::vector<PoseState> own) {
+  res_.controls = controls;
+  res_.design = d;
+  res_.objective = f;
+  res_.rms = rms;
+  states_ = std::move(polished);
+  optimizer_ = std::move(own);
+}
+
 int DesignDriver::keepCandidates(const PhaseTask& task, const PhaseResult& pr, int iterations) {
   int kept = -1;
   for (std::size_t c = 0; c < pr.candidates.size(); ++c) {
@@ -152,19 +186,9 @@ int DesignDriver::keepCandidates(const PhaseTask& task, const PhaseResult& pr, i
     if (static_cast<int>(cand.states.size()) != model_.numPoses()) continue;
     const Design d = space_.toDesign(cand.controls);
     std::vector<PoseState> polished = cand.states;
-    const auto te = Clock::now();
-    const bool ok = solvePosesFrom(model_, d, polished, opt_.newton, opt_.threads);
-    res_.evaluationSeconds += since(te);
-    if (!ok) continue;
-    double f = 0.0;
-    const double ss = objectiveOfStates(model_, objective_, d, polished, f);
-    if (!std::isfinite(f) || !(kept >= 0 ? f < res_.objective : f <= res_.objective)) continue;
-    res_.controls = cand.controls;
-    res_.design = d;
-    res_.objective = f;
-    res_.rms = objective_.rms(ss);
-    states_ = std::move(polished);
-    optimizer_ = cand.states;
+    double f = 0.0, rms = 0.0;
+    if (!solveAndScore(d, polished, f, rms) || !(kept >= 0 ? f < res_.objective : f <= res_.objective)) continue;
+    adopt(cand.controls, d, f, rms, std::move(polished), cand.states);
     kept = static_cast<int>(c);
     fallbacks_.add(cand.controls, f, res_.rms,
                    "the design kept at the end of " + task.label + " (iteration " + std::to_string(iterations) + ")");
@@ -175,14 +199,11 @@ int DesignDriver::keepCandidates(const PhaseTask& task, const PhaseResult& pr, i
 bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note) {
   // Along the loading path from rest (solver/newton.hh), as `rodmesh
   // simulate` and the archive solve the design.
-  path.resize(model_.numPoses());
-  for (int k = 0; k < model_.numPoses(); ++k) path[k] = model_.pose(k).restState(res_.design);
-  const auto te = Clock::now();
-  const bool ok = solvePosesFrom(model_, res_.design, path, opt_.newton, opt_.threads);
-  res_.evaluationSeconds += since(te);
+  path = restStates(res_.design);
+  double f = 0.0, rms = 0.0;
   // A design that does not re-solve from rest is the archive's business
   // (fallback designs); the optimizer's equilibria are all there is to go on.
-  if (!ok) return false;
+  if (!solveAndScore(res_.design, path, f, rms)) return false;
   const double tolerance = designedEquilibriumTolerance(res_.rms, structureSize());
   double gap = 0.0;
   int worst = 0;
@@ -199,58 +220,38 @@ bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>&
     }
   }
   if (!(gap > tolerance)) return false;
-  double f = 0.0;
-  const double ss = objectiveOfStates(model_, objective_, res_.design, path, f);
   note = "the design kept at the end of " + task.label + " has pose '" + scene_.poses[worst].name +
          "' as loaded from rest " + millimetres(gap) + " from the optimizer's equilibrium (tolerance " +
          millimetres(tolerance) + "; RMS " + millimetres(res_.rms) + " on the optimizer's equilibria, " +
-         millimetres(objective_.rms(ss)) + " on the loading path's)";
+         millimetres(rms) + " on the loading path's)";
   return true;
 }
 
 void DesignDriver::continueFromPath(std::vector<PoseState> path) {
   double f = 0.0;
-  const double ss = objectiveOfStates(model_, objective_, res_.design, path, f);
-  res_.objective = f;
-  res_.rms = objective_.rms(ss);
-  states_ = path;
-  optimizer_ = std::move(path);
+  const double rms = objective_.rms(objectiveOfStates(model_, objective_, res_.design, path, f));
+  adopt(res_.controls, res_.design, f, rms, path, path);
 }
 
 std::string DesignDriver::adoptBestOnPath() {
-  std::vector<FallbackDesign> candidates = fallbacks_.designs();
+  const std::vector<FallbackDesign> candidates = fallbacks_.designs();
   std::string label = "the last phase's design";
   double best = std::numeric_limits<double>::infinity();
-  {
-    // The current best design, whose path equilibria continueFromPath may
-    // have installed already.
-    std::vector<PoseState> path(model_.numPoses());
-    for (int k = 0; k < model_.numPoses(); ++k) path[k] = model_.pose(k).restState(res_.design);
-    if (solvePosesFrom(model_, res_.design, path, opt_.newton, opt_.threads)) {
-      continueFromPath(path);
-      best = res_.objective;
-    }
+  // The current best design first, then the fallbacks.
+  std::vector<PoseState> path = restStates(res_.design);
+  double f = 0.0, rms = 0.0;
+  if (solveAndScore(res_.design, path, f, rms)) {
+    adopt(res_.controls, res_.design, f, rms, path, path);
+    best = f;
   }
   for (const FallbackDesign& c : candidates) {
     if (interrupted() || timeUp()) break;
     const Design d = space_.toDesign(c.controls);
-    std::vector<PoseState> path(model_.numPoses());
-    for (int k = 0; k < model_.numPoses(); ++k) path[k] = model_.pose(k).restState(d);
-    const auto te = Clock::now();
-    const bool ok = solvePosesFrom(model_, d, path, opt_.newton, opt_.threads);
-    res_.evaluationSeconds += since(te);
-    if (!ok) continue;
-    double f = 0.0;
-    const double ss = objectiveOfStates(model_, objective_, d, path, f);
-    if (!(f < best)) continue;
+    path = restStates(d);
+    if (!solveAndScore(d, path, f, rms) || !(f < best)) continue;
     best = f;
     label = c.label;
-    res_.controls = c.controls;
-    res_.design = d;
-    res_.objective = f;
-    res_.rms = objective_.rms(ss);
-    states_ = path;
-    optimizer_ = std::move(path);
+    adopt(c.controls, d, f, rms, path, path);
   }
   return label;
 }
@@ -262,24 +263,17 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   res_.design = d0;
 
   // The initial design's equilibria, from rest.
-  states_.resize(K);
-  for (int k = 0; k < K; ++k) states_[k] = model_.pose(k).restState(d0);
-  {
-    const auto te = Clock::now();
-    const bool ok = solvePosesFrom(model_, d0, states_, opt_.newton, opt_.threads);
-    res_.evaluationSeconds += since(te);
-    if (!ok) {
-      // Newton solves stop at the run's limits too (NewtonOptions::cancel).
-      if (interrupted()) return finish(Outcome::Interrupted, "interrupted");
-      if (timeUp()) return finish(Outcome::TimeLimit, "time limit reached");
-      return finish(Outcome::NumericalFailure,
-                    "no equilibrium under the initial design: the poses cannot be solved as given");
-    }
+  states_ = restStates(d0);
+  double f0 = 0.0, rms0 = 0.0;
+  if (!solveAndScore(d0, states_, f0, rms0)) {
+    // Newton solves stop at the run's limits too (NewtonOptions::cancel).
+    if (interrupted()) return finish(Outcome::Interrupted, "interrupted");
+    if (timeUp()) return finish(Outcome::TimeLimit, "time limit reached");
+    return finish(Outcome::NumericalFailure,
+                  "no equilibrium under the initial design: the poses cannot be solved as given");
   }
-  double f0 = 0.0;
-  const double ss0 = objectiveOfStates(model_, objective_, d0, states_, f0);
   res_.initialObjective = res_.objective = f0;
-  res_.initialRms = res_.rms = objective_.rms(ss0);
+  res_.initialRms = res_.rms = rms0;
   for (int k = 0; k < K; ++k) res_.initialPositions.push_back(model_.pose(k).positions(states_[k].u, d0));
   optimizer_ = states_;
   res_.states = states_;
