@@ -450,16 +450,23 @@ class ReducedPhaseSolver : public PhaseSolver {
     out.evaluations = br.evaluations;
     out.failedEvaluations = br.failedEvaluations;
     out.equilibriumRestarts = ro.restarts();
+    // The best point with its equilibria (the objective caches the last
+    // evaluation; the best point is usually the last accepted one). After
+    // the run's limits an evaluation that must solve fails: then the last
+    // accepted point, whose equilibria the objective holds.
+    const std::vector<PoseState> acceptedStates = ro.warmStates();
+    bool haveBest = false;
     if (std::isfinite(br.f)) {
-      // The best point with its equilibria (the objective caches the last
-      // evaluation; the best point is usually the last accepted one).
       const Eigen::VectorXd z = br.x.cwiseProduct(s);
       double f;
       if (ro.evaluate(z, f, nullptr)) {
         ro.accept(z);
         out.candidates.push_back({space_.unpack(phase, z, task.controls), ro.warmStates()});
+        haveBest = true;
       }
     }
+    if (!haveBest && acceptedZ.size() > 0)
+      out.candidates.push_back({space_.unpack(phase, acceptedZ, task.controls), acceptedStates});
     out.evaluationSeconds = ro.evaluationSeconds();
     Outcome o = br.status.outcome;
     // A phase cut by the run's limits inside an evaluation (its line search
