@@ -237,7 +237,7 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
     }
     setOptimizeResult(ap, r.initialPositions.size() > static_cast<std::size_t>(p) ? r.initialPositions[p] : pr.positions,
                       own);
-    if (chosen.fallback) ap.equilibriumGap.reset();
+    if (chosen.fallback || chosen.outOfPlane) ap.equilibriumGap.reset();
     a.poses.push_back(std::move(ap));
   }
   ArchiveHistory h;
@@ -278,7 +278,12 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
     std::snprintf(buf, sizeof buf, "%.6g", chosen.gapTolerance);
     a.extraRootAttributes["equilibrium_gap_tolerance"] = buf;
   }
-  const bool converged = r.status.converged() && chosen.allConverged && !chosen.fallback && !chosen.offPath;
+  if (chosen.outOfPlane)
+    a.extraRootAttributes["effects_note"] =
+        "the scene was inferred planar and optimized in plane, but an in-plane equilibrium of the archived design "
+        "was unstable out of plane; its poses were solved again in 3D with twist";
+  const bool converged =
+      r.status.converged() && chosen.allConverged && !chosen.fallback && !chosen.offPath && !chosen.outOfPlane;
   a.status = converged ? "converged" : (r.status.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
   return a;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <string>
 
 #include "apps/cli_common.hh"
@@ -102,9 +103,42 @@ OptimizeRun runOptimize(const Scene& scene, SceneModel& model, const DesignSpace
   // (solver/design_fallback.hh).
   NewtonOptions resolve = o.optimizer.newton;
   resolve.cancel = nullptr;  // the archived design is re-solved whatever stopped the optimizer
-  const ArchivedDesign chosen = chooseArchivedDesign(model, space, r, resolve);
+  ArchivedDesign chosen = chooseArchivedDesign(model, space, r, resolve);
+  // A scene inferred planar is optimized and re-solved in plane. When an
+  // in-plane equilibrium of the archived design is unstable out of plane
+  // (lateral buckling), `rodmesh simulate` solves the scene again in 3D with
+  // twist (apps/run_simulate.cc); so does the archive, so that simulating
+  // the archived design reproduces it.
+  std::unique_ptr<Scene> spatialScene;
+  std::unique_ptr<SceneModel> spatialModel;
+  SceneModel* archiveModel = &model;
+  std::string unstablePose;
+  if (model.effects().planar && !scene.effects)
+    for (const PoseResult& p : chosen.simulation.poses)
+      if (p.outOfPlaneStable && !*p.outOfPlaneStable && unstablePose.empty()) unstablePose = p.name;
+  if (!unstablePose.empty()) {
+    std::vector<Effect> fx;
+    for (int e = 0; e < kEffectCount; ++e)
+      if (model.effects().on[e] || static_cast<Effect>(e) == Effect::Twist) fx.push_back(static_cast<Effect>(e));
+    spatialScene = std::make_unique<Scene>(scene);
+    spatialScene->effects = fx;
+    spatialModel = std::make_unique<SceneModel>(*spatialScene);
+    archiveModel = spatialModel.get();
+    const double inPlaneRms = chosen.rms;
+    chosen.simulation = simulateAll(*spatialModel, chosen.design, resolve);
+    chosen.allConverged = chosen.simulation.allConverged;
+    chosen.rms = rmsError(chosen.simulation);
+    chosen.outOfPlane = true;
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "the archived design's in-plane equilibrium of pose '%s' is unstable out of plane: every pose was "
+                  "solved again in 3D with twist, as `rodmesh simulate` solves it (RMS %.4g mm in plane, %.4g mm in "
+                  "3D); add \"effects\" to the scene to keep it in plane",
+                  unstablePose.c_str(), inPlaneRms * 1e3, chosen.rms * 1e3);
+    chosen.note += (chosen.note.empty() ? "" : "; ") + std::string(buf);
+  }
   if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
-  Archive a = optimizeArchive(scene, model, space, r, chosen, o.method);
+  Archive a = optimizeArchive(scene, *archiveModel, space, r, chosen, o.method);
   a.version = versionString();
   if (o.method == "reduced")
     a.extraRootAttributes["design_derivatives"] = designDerivativesName(o.optimizer.designDerivatives);

@@ -69,6 +69,11 @@ struct ArchivedDesign {
   // optimizer designed an equilibrium the loaded object does not reach.
   bool offPath = false;
   double gap = 0.0, gapTolerance = 0.0;
+  // The scene was inferred planar and optimized in plane, but an in-plane
+  // equilibrium of the archived design is unstable out of plane: as
+  // `rodmesh simulate` does, every pose was solved again in 3D with twist,
+  // and `simulation` holds those equilibria (not the optimizer's).
+  bool outOfPlane = false;
 };
 
 // The loading-path equilibria of a design are "the ones the optimizer

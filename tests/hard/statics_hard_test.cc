@@ -899,6 +899,48 @@ TEST_F(HardStatics, ShearedPatchKeptInPlaneByItsEffectsIsMarkedUnstableOutOfPlan
   EXPECT_LT(d, 0.030);
 }
 
+// `rodmesh optimize` on the inferred-planar patch with targets on its
+// in-plane equilibrium (the saddle above) designs in plane, where the
+// initial design meets every target. `rodmesh simulate` solves that design
+// in 3D and finds it buckled, and so must the archive: it holds the 3D
+// equilibrium, is not converged, and simulating the archived design
+// reproduces it.
+TEST_F(HardStatics, OptimizedPlanarDesignThatBucklesIsArchivedAsSimulateSolvesIt) {
+  Scene s = shearedPatch(0.0177, 0.0, false);
+  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Connections};
+  ASSERT_EQ(simulate(s).status, 0);
+  const MatX3 inPlane = onlyPose(archive()).positions;
+  ASSERT_GT(largestDisplacement(s, inPlane, 1), 0.015);
+  s.effects.reset();
+  s.poses[0].target.clear();
+  for (Eigen::Index v = 0; v < inPlane.rows(); ++v) s.poses[0].target.push_back(inPlane.row(v).transpose());
+  s.design.present = s.design.radii = true;
+  s.design.hasRadiusBounds = true;
+  s.design.radiusMin = 0.0001;
+  s.design.radiusMax = 0.001;
+  writeSceneFile(s, path("scene.json"));
+  const RunResult opt = run("optimize scene.json -o out.h5 --max-iter 20");
+  EXPECT_EQ(opt.status, 1) << opt.err;
+  const Archive a = archive();
+  EXPECT_EQ(a.status, "not_converged");
+  const ArchivePose& p = onlyPose(a);
+  EXPECT_GT(p.twist.size(), 0) << "solved again in 3D";
+  EXPECT_GT(largestDisplacement(s, p.positions, 2), 0.02) << "buckled out of plane";
+  EXPECT_FALSE(p.equilibriumGap.has_value()) << "the optimizer's equilibria are planar ones";
+  ASSERT_TRUE(a.optimize.has_value());
+  EXPECT_NE(a.optimize->message.find("unstable out of plane"), std::string::npos) << a.optimize->message;
+
+  // What acceptance does: the archived design, simulated from scratch.
+  Scene check = s;
+  check.design = DesignSpec{};
+  for (std::size_t v = 0; v < check.vertices.size(); ++v) {
+    check.vertices[v] = a.restPositions.row(static_cast<Eigen::Index>(v)).transpose();
+    check.radii[v] = a.radii.row(static_cast<Eigen::Index>(v)).transpose();
+  }
+  ASSERT_EQ(simulate(check).status, 0);
+  EXPECT_LT((onlyPose(archive()).positions - p.positions).cwiseAbs().maxCoeff(), 1e-7);
+}
+
 TEST_F(HardStatics, HingedSheetUnderAWeakCornerForceSaysItIsAMechanism) {
   int corner = 0;
   double hingeX = 0.0;
