@@ -384,16 +384,34 @@ inline void addLifted(Hess<N, T>& acc, const Hess<M, T>& a, const int* slots) {
   }
 }
 
-// acc += x * q for two scalars on disjoint variables: x over M variables
-// (variable a is target variable xslots[a]), q over the P consecutive target
-// variables qfirst, ..., all after every xslots[a]; q without a direction.
+// acc += a * b, b over M of a's N variables (variable i of b is variable
+// slots[i] of a; distinct slots), both without a direction: a product of a
+// scalar over many variables and one over a few, at the cost of a's Hessian.
+template <int N, int M>
+inline void addProductLifted(Hess<N, double>& acc, const Hess<N, double>& a, const Hess<M, double>& b,
+                             const int* slots) {
+  using H = Hess<N, double>;
+  acc.v += a.v * b.v;
+  for (int j = 0; j < N; ++j) acc.g[j] += a.g[j] * b.v;
+  for (int i = 0; i < M; ++i) acc.g[slots[i]] += a.v * b.g[i];
+  for (int k = 0; k < H::kNH; ++k) acc.h[k] += a.h[k] * b.v;
+  // a_j b_l + a_l b_j: each ordered (j, slots[i]) once, the diagonal twice.
+  for (int i = 0; i < M; ++i) {
+    const int s = slots[i];
+    const double bi = b.g[i];
+    for (int j = 0; j < N; ++j) acc.h[H::hidx(j, s)] += (j == s ? 2.0 : 1.0) * a.g[j] * bi;
+    for (int l = 0; l <= i; ++l) acc.h[H::hidx(s, slots[l])] += a.v * b.h[Hess<M, double>::hidx(i, l)];
+  }
+}
+
+// acc.h += the Hessian of x * q for two scalars on disjoint variables: x over
+// M variables (variable a is target variable xslots[a]), q over the P
+// consecutive target variables qfirst, ..., all after every xslots[a]; q
+// without a direction. The value and gradient of acc are left alone.
 template <int N, int M, int P, class T>
-inline void addProduct(Hess<N, T>& acc, const Hess<M, T>& x, const int* xslots, const Hess<P, double>& q,
-                       int qfirst) {
+inline void addProductHessian(Hess<N, T>& acc, const Hess<M, T>& x, const int* xslots, const Hess<P, double>& q,
+                              int qfirst) {
   using H = Hess<N, T>;
-  acc.v += x.v * q.v;
-  for (int a = 0; a < M; ++a) acc.g[xslots[a]] += x.g[a] * q.v;
-  for (int b = 0; b < P; ++b) acc.g[qfirst + b] += x.v * q.g[b];
   for (int a = 0; a < M; ++a)
     for (int c = 0; c <= a; ++c) acc.h[H::hidx(xslots[a], xslots[c])] += x.h[Hess<M, T>::hidx(a, c)] * q.v;
   const double* qh = q.h.data();

@@ -524,18 +524,236 @@ ad::Hess<N, T> evalJoint(const BendK<D, TW>& k, const LocalStencil& ls, const do
   return ad::compose<N, M, T>(f, in);
 }
 
-// Connection (K incident edges): differentiated in three layers and composed.
-//  1. The fit A = B Minv (connectionFit): B is a sum of products of an
-//     edge-state component (over that edge's D (+1) locals) and a rest
-//     quantity (wT T etc., over the p locals), accumulated exactly into the
-//     stencil's N variables (ad::addProduct); the rest frames and stiffnesses
-//     over their own rest edge and radii, lifted.
+// The design side of a connection's fit A = B Minv (connectionFitWeights):
+// M = sum_i wT_i T_i T_i^T + wN_i (D1_i D1_i^T + D2_i D2_i^T) with wT_i =
+// trB_i / sum trB and wN_i = beta_i / sum beta, over the NP p locals, as
+// MA = Minv / sum trB and MB = Minv / sum beta, so that the fit's factor of a
+// tangent is MA^T (trB_i T_i) and that of a director MB^T (beta_i D_i), with
+// (trB_i T_i) etc. over edge i's own 7 p locals. F3: the rest frames over
+// their rest edges; ks: the stiffnesses over pslots[i].
+template <int NP, int K>
+struct ConnectionFitDesign {
+  energies::M3<ad::Hess<NP, double>> MA, MB;
+};
+// Minv and the inverses of sum trB and sum beta (a frame of its own: its
+// temporaries are gone when connectionFitDesign forms MA and MB).
+template <int NP, int K>
+[[gnu::noinline]] void connectionFitInverse(const FrameT<ad::Hess<3, double>>* F3,
+                                            const energies::ConnectionEdgeStiffness<ad::Hess<7, double>>* ks,
+                                            const int (*pslots)[7], energies::M3<ad::Hess<NP, double>>& Minv,
+                                            ad::Hess<NP, double>& invA, ad::Hess<NP, double>& invB) {
+  using HP = ad::Hess<NP, double>;
+  using H7 = ad::Hess<7, double>;
+  static constexpr Iota<3> e7(0);
+  {
+    HP sumA, sumB;
+    for (int i = 0; i < K; ++i) {
+      ad::addLifted(sumA, ks[i].trB, pslots[i]);
+      ad::addLifted(sumB, ks[i].beta, pslots[i]);
+    }
+    invA = ad::inverse(sumA);
+    invB = ad::inverse(sumB);
+  }
+  energies::M3<HP> M;  // zero; the lower triangle accumulated
+  for (int i = 0; i < K; ++i) {
+    const V3<ad::Hess<3, double>>* fs[3] = {&F3[i].t, &F3[i].d1, &F3[i].d2};
+    H7 f[3][3];
+    for (int q = 0; q < 3; ++q)
+      for (int c = 0; c < 3; ++c) f[q][c] = ad::lift<7, 3>((*fs[q])[c], e7.s);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b <= a; ++b) {
+        ad::addProductLifted(M.a[a][b], invA, f[0][a] * f[0][b] * ks[i].trB, pslots[i]);
+        ad::addProductLifted(M.a[a][b], invB, (f[1][a] * f[1][b] + f[2][a] * f[2][b]) * ks[i].beta, pslots[i]);
+      }
+  }
+  for (int a = 0; a < 3; ++a)
+    for (int b = a + 1; b < 3; ++b) M.a[a][b] = M.a[b][a];
+  Minv = energies::inverse3(M);
+}
+template <int NP, int K>
+[[gnu::noinline]] void connectionFitDesign(const FrameT<ad::Hess<3, double>>* F3,
+                                           const energies::ConnectionEdgeStiffness<ad::Hess<7, double>>* ks,
+                                           const int (*pslots)[7], ConnectionFitDesign<NP, K>& r) {
+  using HP = ad::Hess<NP, double>;
+  energies::M3<HP> Minv;
+  HP invA, invB;
+  connectionFitInverse<NP, K>(F3, ks, pslots, Minv, invA, invB);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      r.MA.a[a][b] = Minv.a[a][b] * invA;
+      r.MB.a[a][b] = Minv.a[a][b] * invB;
+    }
+}
+
+// The design factor of edge i's state component q (0: tangent, 1, 2: the
+// directors) in the fit: A = sum_i,q X_iq H_iq^T with X_iq the state
+// component (over the edge's x locals) and H_iq[c] = sum_c' Mq[c'][c] w F[c']
+// over the p locals (w F: trB_i T_i or beta_i D_i, over pslots[i]).
+template <int NP>
+void connectionFitFactor(const energies::M3<ad::Hess<NP, double>>& Mq, const V3<ad::Hess<3, double>>& F,
+                         const ad::Hess<7, double>& w, const int* pslots, ad::Hess<NP, double>* H) {
+  static constexpr Iota<3> e7(0);
+  ad::Hess<7, double> wF[3];
+  for (int c = 0; c < 3; ++c) wF[c] = ad::lift<7, 3>(F[c], e7.s) * w;
+  for (int c = 0; c < 3; ++c) {
+    H[c] = ad::Hess<NP, double>();
+    for (int cc = 0; cc < 3; ++cc) ad::addProductLifted(H[c], Mq.a[cc][c], wF[cc], pslots);
+  }
+}
+
+// Calls f(X_iq, H_iq, i) for every incident edge i and state component q
+// (0: tangent, 1, 2: directors) of a connection's fit (see evalJoint below),
+// the design factors H_iq formed on the way.
+template <int NP, int MX, class T, int K, class F>
+void forEachFitProduct(const ConnectionFitDesign<NP, K>& fit, const EdgeState<ad::Hess<MX, T>>* st,
+                       const FrameT<ad::Hess<3, double>>* F3,
+                       const energies::ConnectionEdgeStiffness<ad::Hess<7, double>>* ks, const int (*pslots)[7],
+                       F&& f) {
+  using HP = ad::Hess<NP, double>;
+  for (int i = 0; i < K; ++i) {
+    const V3<ad::Hess<MX, T>>* xs[3] = {&st[i].t, &st[i].m1, &st[i].m2};
+    const V3<ad::Hess<3, double>>* fs[3] = {&F3[i].t, &F3[i].d1, &F3[i].d2};
+    for (int q = 0; q < 3; ++q) {
+      HP H[3];
+      connectionFitFactor<NP>(q == 0 ? fit.MA : fit.MB, *fs[q], q == 0 ? ks[i].trB : ks[i].beta, pslots[i], H);
+      f(*xs[q], H, i);
+    }
+  }
+}
+
+// Layer 3 of a connection's evalJoint for incident edge i, in a frame of its
+// own (reused edge after edge): in the space (edge locals x_i | A | E_i | radii
+// of the two ends), the connection edge's frame R F over (A, E_i), the energy
+// over (R F, x_i, stiffnesses), composed into that space and added into acc
+// over (A, the N locals).
+template <int N, class T, int D, bool TW, int K>
+[[gnu::noinline]] void connectionEdgeJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
+                                           const double* xdir, int i, const energies::M3<ad::Hess<9, T>>& R9,
+                                           const EdgeState<ad::Hess<D + (TW ? 1 : 0), T>>& st,
+                                           const FrameT<ad::Hess<3, double>>& F3,
+                                           const energies::ConnectionEdgeStiffness<ad::Hess<7, double>>& ks,
+                                           const int* xslots, const int* pslots, ad::Hess<9 + N, T>& acc) {
+  constexpr int NX = KernelSize<ConnectionK<D, TW, K>>::nx;
+  constexpr int MX = D + (TW ? 1 : 0);
+  using HM = ad::Hess<MX, T>;
+  using H3 = ad::Hess<3, double>;
+  constexpr int ME = MX + 9 + 7;
+  constexpr int MF = 9 + MX + 3;  // outer: R F, x_i, kIn, kOut, kTwist
+  using H12 = ad::Hess<12, T>;
+  using HF = ad::Hess<MF, T>;
+  static const T one(1.0);
+  static constexpr Iota<9> a12(0);
+  static constexpr Iota<3> e12(9);
+  static constexpr Iota<7> id7(0);
+  // R F over (A, E_i).
+  energies::M3<H12> R;
+  for (int m = 0; m < 9; ++m) R.a[m / 3][m % 3] = ad::lift<12, 9>(R9.a[m / 3][m % 3], a12.s);
+  auto liftF = [&](const V3<H3>& v) {
+    return V3<H12>(ad::liftAs<12, 3, T>(v.x, e12.s), ad::liftAs<12, 3, T>(v.y, e12.s),
+                   ad::liftAs<12, 3, T>(v.z, e12.s));
+  };
+  const FrameT<H12> F{liftF(F3.t), liftF(F3.d1), liftF(F3.d2)};
+  const FrameT<H12> RF = energies::rotatedFrame(R, F);
+  const H12* rf[9] = {&RF.t.x, &RF.t.y, &RF.t.z, &RF.d1.x, &RF.d1.y, &RF.d1.z, &RF.d2.x, &RF.d2.y, &RF.d2.z};
+  // The outer function.
+  FrameT<HF> Fb;
+  HF* fb[9] = {&Fb.t.x, &Fb.t.y, &Fb.t.z, &Fb.d1.x, &Fb.d1.y, &Fb.d1.z, &Fb.d2.x, &Fb.d2.y, &Fb.d2.z};
+  for (int m = 0; m < 9; ++m) fb[m]->makeVariable(rf[m]->v, m);
+  int es[MX];
+  for (int j = 0; j < MX; ++j) es[j] = 9 + j;
+  auto liftX = [&](const V3<HM>& v) {
+    return V3<HF>(ad::lift<MF, MX>(v.x, es), ad::lift<MF, MX>(v.y, es), ad::lift<MF, MX>(v.z, es));
+  };
+  const EdgeState<HF> sti{liftX(st.t), liftX(st.u), liftX(st.m1), liftX(st.m2)};
+  HF th(0.0);
+  if constexpr (TW) th.makeVariable(seedValue<T>(ls.xv[D * K + i], xdir, D * K + i), 9 + D);
+  const ad::Hess<7, T> kT[3] = {ad::liftAs<7, 7, T>(ks.kIn, id7.s), ad::liftAs<7, 7, T>(ks.kOut, id7.s),
+                                ad::liftAs<7, 7, T>(ks.kTwist, id7.s)};
+  HF kv[3];
+  for (int j = 0; j < 3; ++j) kv[j].makeVariable(kT[j].v, 9 + MX + j);
+  const HF e = energies::connectionEdgeEnergyOfFrame(Fb, sti, th, kv[0], kv[1], kv[2], k.k.bend, k.k.twist);
+  // Into (x_i | A | E_i | radii).
+  ad::Inner<T> in[MF];
+  for (int m = 0; m < 9; ++m) in[m] = ad::inner(*rf[m], MX);
+  for (int j = 0; j < MX; ++j) in[9 + j] = {&one, nullptr, 1, j};
+  for (int j = 0; j < 3; ++j) in[9 + MX + j] = ad::inner(kT[j], MX + 9);
+  const ad::Hess<ME, T> eA = ad::compose<ME, MF, T>(e, in);
+  int ys[ME];
+  for (int j = 0; j < MX; ++j) ys[j] = 9 + xslots[j];
+  for (int m = 0; m < 9; ++m) ys[MX + m] = m;
+  for (int j = 0; j < 7; ++j) ys[MX + 9 + j] = 9 + NX + pslots[j];
+  ad::addLifted(acc, eA, ys);
+}
+
+// Layer 4 of a connection's evalJoint, in a frame of its own: the fit A
+// composed out of Phi (acc, over (A, the N locals z)). With J = dA/dz,
+// P = Phi_AA and C = Phi_Az: g = Phi_z + J^T Phi_A and H = Phi_zz +
+// J^T (P J + C) + C^T J, then + sum_k Phi_A_k A_k'', the Hessian of
+// sum_i,q,c (sum_r Phi_A_rc X_iq[r]) H_iq[c].
+template <int N, class T, int D, bool TW, int K>
+[[gnu::noinline]] void connectionComposeFit(
+    const ad::Hess<9 + N, T>& acc, const T (*J)[N],
+    const ConnectionFitDesign<KernelSize<ConnectionK<D, TW, K>>::np, K>& fit,
+    const EdgeState<ad::Hess<D + (TW ? 1 : 0), T>>* st, const FrameT<ad::Hess<3, double>>* F3,
+    const energies::ConnectionEdgeStiffness<ad::Hess<7, double>>* ks, const int (*xslots)[4],
+    const int (*pslots)[7], ad::Hess<N, T>& out) {
+  constexpr int NX = KernelSize<ConnectionK<D, TW, K>>::nx, NP = KernelSize<ConnectionK<D, TW, K>>::np;
+  constexpr int MX = D + (TW ? 1 : 0);
+  using HM = ad::Hess<MX, T>;
+  using HP = ad::Hess<NP, double>;
+  using HY = ad::Hess<9 + N, T>;
+  out.v = acc.v;
+  for (int j = 0; j < N; ++j) {
+    T gj = acc.g[9 + j];
+    for (int m = 0; m < 9; ++m) gj += acc.g[m] * J[m][j];
+    out.g[j] = gj;
+  }
+  T W[9][N];
+  for (int m = 0; m < 9; ++m)
+    for (int t = 0; t < N; ++t) {
+      T w = acc.h[HY::hidx(m, 9 + t)];
+      for (int l = 0; l < 9; ++l) w += acc.h[HY::hidx(m, l)] * J[l][t];
+      W[m][t] = w;
+    }
+  for (int s = 0; s < N; ++s) {
+    const T* zz = acc.h.data() + (9 + s) * (10 + s) / 2 + 9;  // Phi_zz row s
+    const T* cs = acc.h.data() + (9 + s) * (10 + s) / 2;      // C[.][s]
+    T* hs = out.h.data() + s * (s + 1) / 2;
+    for (int t = 0; t <= s; ++t) {
+      T h = zz[t];
+      for (int m = 0; m < 9; ++m) h += J[m][s] * W[m][t] + cs[m] * J[m][t];
+      hs[t] = h;
+    }
+  }
+  forEachFitProduct<NP, MX, T, K>(fit, st, F3, ks, pslots, [&](const V3<HM>& X, const HP* H, int i) {
+    for (int c = 0; c < 3; ++c) {
+      HM y = ad::scale(X[0], acc.g[c]);
+      for (int r = 1; r < 3; ++r) y += ad::scale(X[r], acc.g[3 * r + c]);
+      ad::addProductHessian<N, MX, NP, T>(out, y, xslots[i], H[c], NX);
+    }
+  });
+}
+
+// Connection (K incident edges): differentiated in layers and composed; no
+// scalar carries more than the stencil's N locals, and only the result and
+// the energy over (A, the N locals) are that large.
+//  1. The fit A = B Minv (connectionFit) is a sum of products X_iq H_iq^T of
+//     an edge-state component (over that edge's D (+1) locals) and a design
+//     factor (over the p locals; connectionFitDesign, connectionFitFactor).
+//     A's values and gradients (9 x N) are accumulated from them.
 //  2. R = polar(A) over A's 9 entries.
 //  3. Each edge's coupling energy (connectionEdgeEnergyOfFrame) over the
 //     connection edge's frame R F (itself over A and the rest edge), the
 //     edge's own x locals and its stiffnesses (16 variables in 3D with
-//     twist), composed and summed over the edges as a function of (A, the N
-//     locals); A is composed out last.
+//     twist), composed and summed over the edges as a function Phi of (A, the
+//     N locals).
+//  4. A composed out by the chain rule (connectionComposeFit): through A's
+//     gradients, plus sum_k dPhi/dA_k times A_k's Hessian, which is the
+//     Hessian of sum_i,q,c (sum_r dPhi/dA_rc X_iq[r]) H_iq[c]: products of a
+//     scalar over one edge's locals and one over the p locals
+//     (ad::addProductHessian), the design factors formed again.
+// The pieces run in frames of their own, so that the stack a call needs stays
+// a few hundred kB for a six-valent connection (tests/model/stack_use_test.cc).
 template <int N, class T, int D, bool TW, int K>
 ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls, const double* xdir) {
   constexpr int NX = KernelSize<ConnectionK<D, TW, K>>::nx, NP = KernelSize<ConnectionK<D, TW, K>>::np;
@@ -576,107 +794,42 @@ ad::Hess<N, T> evalJoint(const ConnectionK<D, TW, K>& k, const LocalStencil& ls,
                                               k.k.youngModulus, k.k.shearModulus);
   }
 
-  // 1. The fit's rest side over the p locals (double), then B and A.
+  // 1. A's values and gradients J (rows: A's entries, row-major).
   using HP = ad::Hess<NP, double>;
-  energies::ConnectionRest<HP, K> rest;
-  HP trB[K], beta[K];
-  for (int i = 0; i < K; ++i) {
-    const int* e3 = pslots[i];
-    auto liftV = [&](const V3<H3>& v) {
-      return V3<HP>(ad::lift<NP, 3>(v.x, e3), ad::lift<NP, 3>(v.y, e3), ad::lift<NP, 3>(v.z, e3));
-    };
-    rest.F[i] = {liftV(F3[i].t), liftV(F3[i].d1), liftV(F3[i].d2)};
-    trB[i] = ad::lift<NP, 7>(ks[i].trB, pslots[i]);
-    beta[i] = ad::lift<NP, 7>(ks[i].beta, pslots[i]);
-  }
-  energies::connectionFitWeights(trB, beta, rest);
-  using S = ad::Hess<N, T>;
-  energies::M3<S> B;  // zero
-  for (int i = 0; i < K; ++i) {
-    const V3<HM>* xs[3] = {&st[i].t, &st[i].m1, &st[i].m2};
-    const V3<HP>* fs[3] = {&rest.F[i].t, &rest.F[i].d1, &rest.F[i].d2};
-    const HP* ws[3] = {&rest.wT[i], &rest.wN[i], &rest.wN[i]};
-    for (int q = 0; q < 3; ++q)
+  ConnectionFitDesign<NP, K> fit;
+  connectionFitDesign<NP, K>(F3, ks, pslots, fit);
+  auto forEachProduct = [&](auto&& f) { forEachFitProduct<NP, MX, T, K>(fit, st, F3, ks, pslots, f); };
+  T Av[3][3] = {};
+  T J[9][N] = {};
+  forEachProduct([&](const V3<HM>& X, const HP* H, int i) {
+    for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) {
-        const HP G = (*fs[q])[c] * *ws[q];
-        for (int r = 0; r < 3; ++r) ad::addProduct<N, MX, NP, T>(B.a[r][c], (*xs[q])[r], xslots[i], G, NX);
+        const HM& x = X[r];
+        const HP& h = H[c];
+        T* Jrc = J[3 * r + c];
+        Av[r][c] += x.v * h.v;
+        for (int a = 0; a < MX; ++a) Jrc[xslots[i][a]] += x.g[a] * h.v;
+        for (int b = 0; b < NP; ++b) Jrc[NX + b] += x.v * h.g[b];
       }
-  }
-  static constexpr Iota<NP> ps(NX);
-  S Minv[3][3];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) Minv[r][c] = ad::liftAs<N, NP, T>(rest.Minv.a[r][c], ps.s);
-  energies::M3<S> A;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) A.a[r][c] = B.a[r][0] * Minv[0][c] + B.a[r][1] * Minv[1][c] + B.a[r][2] * Minv[2][c];
+  });
 
   // 2. R over A.
   using H9 = ad::Hess<9, T>;
   energies::M3<H9> a9;
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) a9.a[r][c].makeVariable(A.a[r][c].v, 3 * r + c);
+    for (int c = 0; c < 3; ++c) a9.a[r][c].makeVariable(Av[r][c], 3 * r + c);
   const energies::M3<H9> R9 = energies::polarRotationDirect(a9);
 
-  // 3. Edge energies. Per edge, the space (edge locals x_i | A | E_i | radii
-  // of the two ends): the connection edge's frame R F over (A, E_i), the
-  // energy over (R F, x_i, stiffnesses), composed into that space and added
-  // into (A, the N locals).
-  constexpr int ME = MX + 9 + 7;
-  constexpr int MF = 9 + MX + 3;  // outer: R F, x_i, kIn, kOut, kTwist
-  using H12 = ad::Hess<12, T>;
-  using HF = ad::Hess<MF, T>;
-  constexpr int NY = 9 + N;  // (A, the N locals)
+  // 3. Edge energies, summed as a function Phi of (A, the N locals).
+  constexpr int NY = 9 + N;
   ad::Hess<NY, T> acc;
-  static const T one(1.0);
-  static constexpr Iota<9> a12(0);
-  static constexpr Iota<3> e12(9);
-  static constexpr Iota<7> id7(0);
-  for (int i = 0; i < K; ++i) {
-    // R F over (A, E_i).
-    energies::M3<H12> R;
-    for (int m = 0; m < 9; ++m) R.a[m / 3][m % 3] = ad::lift<12, 9>(R9.a[m / 3][m % 3], a12.s);
-    auto liftF = [&](const V3<H3>& v) {
-      return V3<H12>(ad::liftAs<12, 3, T>(v.x, e12.s), ad::liftAs<12, 3, T>(v.y, e12.s),
-                     ad::liftAs<12, 3, T>(v.z, e12.s));
-    };
-    const FrameT<H12> F{liftF(F3[i].t), liftF(F3[i].d1), liftF(F3[i].d2)};
-    const FrameT<H12> RF = energies::rotatedFrame(R, F);
-    const H12* rf[9] = {&RF.t.x, &RF.t.y, &RF.t.z, &RF.d1.x, &RF.d1.y, &RF.d1.z, &RF.d2.x, &RF.d2.y, &RF.d2.z};
-    // The outer function.
-    HF y[9];
-    for (int m = 0; m < 9; ++m) y[m].makeVariable(rf[m]->v, m);
-    const FrameT<HF> Fb{V3<HF>(y[0], y[1], y[2]), V3<HF>(y[3], y[4], y[5]), V3<HF>(y[6], y[7], y[8])};
-    int es[MX];
-    for (int j = 0; j < MX; ++j) es[j] = 9 + j;
-    auto liftX = [&](const V3<HM>& v) {
-      return V3<HF>(ad::lift<MF, MX>(v.x, es), ad::lift<MF, MX>(v.y, es), ad::lift<MF, MX>(v.z, es));
-    };
-    const EdgeState<HF> sti{liftX(st[i].t), liftX(st[i].u), liftX(st[i].m1), liftX(st[i].m2)};
-    HF th(0.0);
-    if constexpr (TW) th.makeVariable(seedValue<T>(ls.xv[D * K + i], xdir, D * K + i), 9 + D);
-    const ad::Hess<7, T> kT[3] = {ad::liftAs<7, 7, T>(ks[i].kIn, id7.s), ad::liftAs<7, 7, T>(ks[i].kOut, id7.s),
-                                  ad::liftAs<7, 7, T>(ks[i].kTwist, id7.s)};
-    HF kv[3];
-    for (int j = 0; j < 3; ++j) kv[j].makeVariable(kT[j].v, 9 + MX + j);
-    const HF e =
-        energies::connectionEdgeEnergyOfFrame(Fb, sti, th, kv[0], kv[1], kv[2], k.k.bend, k.k.twist);
-    // Into (x_i | A | E_i | radii).
-    ad::Inner<T> in[MF];
-    for (int m = 0; m < 9; ++m) in[m] = ad::inner(*rf[m], MX);
-    for (int j = 0; j < MX; ++j) in[9 + j] = {&one, nullptr, 1, j};
-    for (int j = 0; j < 3; ++j) in[9 + MX + j] = ad::inner(kT[j], MX + 9);
-    const ad::Hess<ME, T> eA = ad::compose<ME, MF, T>(e, in);
-    int ys[ME];
-    for (int j = 0; j < MX; ++j) ys[j] = 9 + xslots[i][j];
-    for (int m = 0; m < 9; ++m) ys[MX + m] = m;
-    for (int j = 0; j < 7; ++j) ys[MX + 9 + j] = 9 + NX + pslots[i][j];
-    ad::addLifted(acc, eA, ys);
-  }
-  // A composed out: the energy over the N locals.
-  ad::Inner<T> in[NY];
-  for (int m = 0; m < 9; ++m) in[m] = ad::inner(A.a[m / 3][m % 3], 0);
-  for (int j = 0; j < N; ++j) in[9 + j] = {&one, nullptr, 1, j};
-  return ad::compose<N, NY, T>(acc, in);
+  for (int i = 0; i < K; ++i)
+    connectionEdgeJoint<N, T, D, TW, K>(k, ls, xdir, i, R9, st[i], F3[i], ks[i], xslots[i], pslots[i], acc);
+
+  // 4. A composed out.
+  ad::Hess<N, T> out{ad::NoInit{}};
+  connectionComposeFit<N, T, D, TW, K>(acc, J, fit, st, F3, ks, xslots, pslots, out);
+  return out;
 }
 
 // ------------------------------------------------------------------------

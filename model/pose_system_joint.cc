@@ -9,100 +9,13 @@
 #include "model/pose_system_detail.hh"
 
 #include <algorithm>
-#include <exception>
-#include <functional>
 #include <stdexcept>
-#include <sys/mman.h>
-#include <ucontext.h>
-
-#if defined(__SANITIZE_ADDRESS__)
-#include <sanitizer/common_interface_defs.h>
-#endif
 
 namespace rodmesh {
 
 using namespace detail;
 
 namespace {
-// Joint derivatives of large stencils (a six-valent connection has 56 local
-// variables: a Hessian scalar with a direction is 26 kB, and the kernel keeps
-// dozens of them; about 2 MB of stack in all) may need more stack than the
-// calling thread has. They run on a stack owned by the calling thread: 64 MB
-// reserved once per thread (only touched pages are committed, and they stay
-// committed for the next call), entered by a context switch on the same
-// thread, so no thread is created and the work stays on the caller's CPU.
-constexpr std::size_t kLargeStackBytes = std::size_t(64) << 20;
-
-struct LargeStack {
-  void* base = nullptr;
-  LargeStack() {
-    void* p = mmap(nullptr, kLargeStackBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE,
-                   -1, 0);
-    if (p == MAP_FAILED) return;
-    mprotect(p, 4096, PROT_NONE);  // guard page at the bottom: an overflow faults
-    base = p;
-  }
-  ~LargeStack() {
-    if (base) munmap(base, kLargeStackBytes);
-  }
-  LargeStack(const LargeStack&) = delete;
-  LargeStack& operator=(const LargeStack&) = delete;
-};
-
-struct LargeStackCall {
-  const std::function<void()>* fn = nullptr;
-  std::exception_ptr error;
-  ucontext_t caller{}, callee{};
-#if defined(__SANITIZE_ADDRESS__)
-  void* fakeStack = nullptr;
-  const void* callerBottom = nullptr;
-  std::size_t callerSize = 0;
-#endif
-};
-
-thread_local LargeStackCall* tCall = nullptr;
-
-void largeStackEntry() {
-  LargeStackCall* call = tCall;
-#if defined(__SANITIZE_ADDRESS__)
-  __sanitizer_finish_switch_fiber(nullptr, &call->callerBottom, &call->callerSize);
-#endif
-  try {
-    (*call->fn)();
-  } catch (...) {
-    call->error = std::current_exception();
-  }
-#if defined(__SANITIZE_ADDRESS__)
-  __sanitizer_start_switch_fiber(nullptr, call->callerBottom, call->callerSize);
-#endif
-  // Returning resumes uc_link (the caller).
-}
-
-void runWithLargeStack(const std::function<void()>& fn) {
-  thread_local LargeStack stack;
-  if (tCall || !stack.base) {  // already on it, or no stack could be reserved
-    fn();
-    return;
-  }
-  LargeStackCall call;
-  call.fn = &fn;
-  getcontext(&call.callee);
-  call.callee.uc_stack.ss_sp = stack.base;
-  call.callee.uc_stack.ss_size = kLargeStackBytes;
-  call.callee.uc_link = &call.caller;
-  makecontext(&call.callee, largeStackEntry, 0);
-  tCall = &call;
-#if defined(__SANITIZE_ADDRESS__)
-  __sanitizer_start_switch_fiber(&call.fakeStack, stack.base, kLargeStackBytes);
-#endif
-  swapcontext(&call.caller, &call.callee);
-#if defined(__SANITIZE_ADDRESS__)
-  __sanitizer_finish_switch_fiber(call.fakeStack, nullptr, nullptr);
-#endif
-  tCall = nullptr;
-  if (call.error) std::rethrow_exception(call.error);
-}
-
 // Builds a CSC matrix pattern from per-column row lists.
 Eigen::SparseMatrix<double> patternFrom(std::vector<std::vector<int>>& cols, int rows) {
   const int n = static_cast<int>(cols.size());
@@ -230,13 +143,11 @@ void PoseSystem::evaluateJoint(const Eigen::VectorXd& u, const Design& d, JointD
   out.energy = 0.0;
   out.gu.setZero(nDofs_);
   out.gp.setZero(d.numParameters());
-  runWithLargeStack([&] {
-    withLayout([&](auto Dc, auto TWc) {
-      constexpr int D = decltype(Dc)::value;
-      constexpr bool TW = decltype(TWc)::value;
-      if (v) runJoint<D, TW, ad::Dual>(u, d, v, out);
-      else runJoint<D, TW, double>(u, d, nullptr, out);
-    });
+  withLayout([&](auto Dc, auto TWc) {
+    constexpr int D = decltype(Dc)::value;
+    constexpr bool TW = decltype(TWc)::value;
+    if (v) runJoint<D, TW, ad::Dual>(u, d, v, out);
+    else runJoint<D, TW, double>(u, d, nullptr, out);
   });
   // Huu is symmetric: the stencils fill its lower triangle.
   double* huu = out.Huu.valuePtr();
@@ -261,10 +172,8 @@ Eigen::VectorXd PoseSystem::designForceProduct(const Eigen::VectorXd& u, const D
                                                Eigen::VectorXd* hessianTimesLambda) const {
   Eigen::VectorXd outP = Eigen::VectorXd::Zero(d.numParameters());
   if (hessianTimesLambda) hessianTimesLambda->setZero(nDofs_);
-  runWithLargeStack([&] {
-    withLayout([&](auto Dc, auto TWc) {
-      runProduct<decltype(Dc)::value, decltype(TWc)::value>(u, d, lambda, outP, hessianTimesLambda);
-    });
+  withLayout([&](auto Dc, auto TWc) {
+    runProduct<decltype(Dc)::value, decltype(TWc)::value>(u, d, lambda, outP, hessianTimesLambda);
   });
   return outP;
 }

@@ -63,19 +63,19 @@ struct ConnectionRest {
   M3<P> Minv;                     // (sum w Q Q^T)^-1
 };
 
+// The inverse by cofactors: entry (i, j) is a[i1][j1] a[i2][j2] -
+// a[i1][j2] a[i2][j1] with i1, i2 the rows other than j and j1, j2 the
+// columns other than i, taken cyclically, over det. One cofactor at a time,
+// so that a large scalar's temporaries are not multiplied by nine.
 template <class P>
 M3<P> inverse3(const M3<P>& m) {
   const auto& a = m.a;
   M3<P> r;
-  r.a[0][0] = a[1][1] * a[2][2] - a[1][2] * a[2][1];
-  r.a[0][1] = a[0][2] * a[2][1] - a[0][1] * a[2][2];
-  r.a[0][2] = a[0][1] * a[1][2] - a[0][2] * a[1][1];
-  r.a[1][0] = a[1][2] * a[2][0] - a[1][0] * a[2][2];
-  r.a[1][1] = a[0][0] * a[2][2] - a[0][2] * a[2][0];
-  r.a[1][2] = a[0][2] * a[1][0] - a[0][0] * a[1][2];
-  r.a[2][0] = a[1][0] * a[2][1] - a[1][1] * a[2][0];
-  r.a[2][1] = a[0][1] * a[2][0] - a[0][0] * a[2][1];
-  r.a[2][2] = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+      r.a[i][j] = a[i1][j1] * a[i2][j2] - a[i1][j2] * a[i2][j1];
+    }
   const P det = a[0][0] * r.a[0][0] + a[0][1] * r.a[1][0] + a[0][2] * r.a[2][0];
   const P inv = P(1.0) / det;
   for (int i = 0; i < 3; ++i)
