@@ -110,4 +110,15 @@ Eigen::VectorXd ReducedHessian::apply(const Eigen::VectorXd& v, bool gaussNewton
   return J_.transpose() * total;
 }
 
+std::vector<Eigen::VectorXd> ReducedHessian::equilibriumChange(const Eigen::VectorXd& v) const {
+  const Eigen::VectorXd dp = J_ * v;
+  const int n = static_cast<int>(poses_.size());
+  std::vector<Eigen::VectorXd> du(n);
+  forEachPose(n, threads_, [&](int k) {
+    const PoseData& pd = poses_[k];
+    du[k] = pd.dofs > 0 ? Eigen::VectorXd(-pd.ldlt->solve(pd.joint.Hup * dp)) : Eigen::VectorXd();
+  });
+  return du;
+}
+
 }  // namespace rodmesh

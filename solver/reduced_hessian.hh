@@ -53,6 +53,9 @@ class ReducedHessian {
   // (d2f/dz2) v, exact; and the Gauss-Newton product (positive semidefinite).
   Eigen::VectorXd product(const Eigen::VectorXd& v) const { return apply(v, false); }
   Eigen::VectorXd gaussNewtonProduct(const Eigen::VectorXd& v) const { return apply(v, true); }
+  // First-order change of every pose's equilibrium along v:
+  // du_k = -H_k^-1 (dF_k/dp) J v (a predictor for the equilibria at z + v).
+  std::vector<Eigen::VectorXd> equilibriumChange(const Eigen::VectorXd& v) const;
 
  private:
   using Ldlt = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>>;
