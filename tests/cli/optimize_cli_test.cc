@@ -258,7 +258,7 @@ TEST_F(OptimizeCli, FiniteDifferenceDesignDerivativesReduceTheError) {
 TEST_F(OptimizeCli, BadUsageIsExit2AndWritesNothing) {
   const std::vector<std::string> before = files();
   for (const std::string args :
-       {"--method newton", "--method reduced --time-limit -1", "--method reduced --max-iter abc",
+       {"--method gradient", "--method reduced --time-limit -1", "--method reduced --max-iter abc",
         "--method reduced --ipopt tol=1e-3", "--method reduced --threads 0", "--method reduced --tol 2",
         "--method reduced --schedule fast", "--method sand --design-derivatives fd",
         "--method sand --design-derivatives fd-resolve", "--method reduced --design-derivatives central"}) {
