@@ -1,4 +1,4 @@
-// rodmesh optimize SCENE.json -o OUT.h5 [--method sand|reduced] ...: design
+// rodmesh optimize SCENE.json -o OUT.h5 [--method sand|reduced|newton] ...: design
 // optimization (docs/formats.md §2 and §4). Finds the radii and rest
 // shape (design.parameters) for which every pose's equilibrium reproduces its
 // target, archives the design, its control points, the history, and every
@@ -158,9 +158,10 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       ->required();
   app->add_option("-o,--output", opts->output, "result archive (HDF5)")->required();
   app->add_option("--method", opts->method,
-                  "sand (simultaneous analysis and design, Ipopt; the default when built) or reduced (the paper's "
-                  "reduced-space BFGS)")
-      ->check(CLI::IsMember({"sand", "reduced"}));
+                  "sand (simultaneous analysis and design, Ipopt; the default when built), reduced (the paper's "
+                  "reduced-space BFGS) or newton (reduced-space trust-region Newton-CG with exact Hessian-vector "
+                  "products)")
+      ->check(CLI::IsMember({"sand", "reduced", "newton"}));
   app->add_option("--max-iter", opts->optimizer.maxIterations, "optimizer iterations over the whole schedule")
       ->check(wholeNumberIn(0, kMaxOptimizeIterations))
       ->capture_default_str();
@@ -168,14 +169,15 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       ->check(realNumberIn(kTimeLimitRange))
       ->capture_default_str();
   app->add_option("--tol", opts->optimizer.tolerance,
-                  "relative tolerance; reduced: projected gradient against its value at the start of a phase; sand: "
+                  "relative tolerance; reduced, newton: projected gradient against its value at the start of a phase; sand: "
                   "Ipopt's tol and dual_inf_tol, the objective being scaled to 1 at the start of each phase")
       ->check(realNumberIn(kOptimizeTolRange))
       ->capture_default_str();
   app->add_option("--schedule", opts->schedule,
                   "paper (radii by levels, then rest shape and radii alternating; the default of --method reduced), "
                   "levels (radii by levels, then radii and rest shape together; the default of --method sand), "
-                  "joint (everything at once) or multilevel (everything together, level by level)")
+                  "joint (everything at once; the default of --method newton) or multilevel (everything together, "
+                  "level by level)")
       ->check(CLI::IsMember({"paper", "joint", "levels", "multilevel"}));
   app->add_option("--threads", opts->optimizer.threads, "poses solved in parallel (results do not depend on it)")
       ->check(wholeNumberIn(1, kMaxThreads))
@@ -274,6 +276,11 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                      "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  viol %.2e N  dual inf %.2e  step %.2e  %s%s\n",
                      it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.constraintViolation,
                      it.dualInfeasibility, it.step, formatSeconds(it.elapsed).c_str(), best);
+      else if (o.method == "newton")
+        std::fprintf(stderr,
+                     "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  |g| %.2e  step %.2e  cg %3d  radius %.2e  %s%s\n",
+                     it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.gradientNorm, it.step,
+                     it.cgIterations, it.trustRadius, formatSeconds(it.elapsed).c_str(), best);
       else
         std::fprintf(stderr, "iter %4d  level %d %-10s  f %.4e  RMS %.4f mm  |g| %.2e  step %.2e  viol 0 N  %s%s\n",
                      it.iteration, it.level, it.phase.c_str(), it.objective, it.rms * 1e3, it.gradientNorm, it.step,

@@ -63,7 +63,7 @@ void checkOptimizeOptions(OptimizeOptions& o) {
   if (o.method == "sand")
     if (std::string why = checkIpoptOptionsFile(); !why.empty()) throw InputError("optimize: " + why);
 #endif
-  if (o.schedule.empty()) o.schedule = o.method == "sand" ? "levels" : "paper";
+  if (o.schedule.empty()) o.schedule = o.method == "sand" ? "levels" : o.method == "newton" ? "joint" : "paper";
   o.optimizer.schedule = o.schedule == "joint"        ? Schedule::Joint
                          : o.schedule == "levels"     ? Schedule::Levels
                          : o.schedule == "multilevel" ? Schedule::Multilevel
@@ -83,11 +83,14 @@ OptimizeRun runOptimize(const Scene& scene, SceneModel& model, const DesignSpace
       so.ipopt.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
     }
     r = optimizeSand(model, space, so, progress);
+  } else if (o.method == "newton") {
+    r = optimizeNewton(model, space, o.optimizer, progress);
   } else {
     r = optimizeReduced(model, space, o.optimizer, progress);
   }
 #else
-  r = optimizeReduced(model, space, o.optimizer, progress);
+  r = o.method == "newton" ? optimizeNewton(model, space, o.optimizer, progress)
+                           : optimizeReduced(model, space, o.optimizer, progress);
 #endif
   if (!quiet) {
     std::cerr << "optimizer: " << outcomeName(r.status.outcome) << " (" << r.status.message << "), " << r.iterations

@@ -109,7 +109,7 @@ struct ArchiveControlPoints {
 
 // Root attributes written by optimize.
 struct ArchiveOptimizeSummary {
-  std::string method;        // "sand" or "reduced"
+  std::string method;        // "sand", "reduced" or "newton"
   long long iterations = 0;  // optimizer iterations over the whole schedule (int64)
   double timeSeconds = 0.0;  // wall time of the optimization [s]
   std::string message;       // why the optimizer stopped, for humans

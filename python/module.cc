@@ -177,7 +177,7 @@ cli::OptimizeOptions optimizeOptions(const py::dict& kw) {
     }
     throw InputError(flagOf(k) + ": " + v + " not in {" + list + "}");
   };
-  if (has("method")) o.method = member("method", {"sand", "reduced"});
+  if (has("method")) o.method = member("method", {"sand", "reduced", "newton"});
   if (has("max_iter")) o.optimizer.maxIterations = kw["max_iter"].cast<int>();
   if (has("time_limit")) o.optimizer.timeLimit = kw["time_limit"].cast<double>();
   if (has("tol")) o.optimizer.tolerance = kw["tol"].cast<double>();
@@ -212,6 +212,8 @@ py::dict iterateDict(const DesignIterate& it) {
   d["dual_infeasibility"] = it.dualInfeasibility;
   d["best_rms_error"] = it.confirmedRms;
   d["best_iteration"] = it.confirmedIteration;
+  d["cg_iterations"] = it.cgIterations;
+  d["trust_radius"] = it.trustRadius;
   return d;
 }
 

@@ -2,6 +2,7 @@
 
 #include "solver/design_driver.hh"
 #include "solver/parallel.hh"
+#include "solver/reduced_hessian.hh"
 
 #include <Eigen/SparseCholesky>
 
@@ -70,6 +71,16 @@ BfgsOptions reducedBfgsDefaults() {
   return b;
 }
 
+TrustRegionOptions newtonTrustRegionDefaults() {
+  TrustRegionOptions t;
+  t.initialRadius = 1.0;
+  t.maxRadius = 100.0;
+  t.minRadius = 1e-9;
+  t.maxCgIterations = 300;
+  t.forcing = 0.1;
+  return t;
+}
+
 std::string DesignOptimizerOptions::isValid() const {
   if (maxIterations < 0) return "maximum iterations must be non-negative";
   if (!(timeLimit >= 0) || !std::isfinite(timeLimit)) return "time limit must be a non-negative number of seconds";
@@ -83,6 +94,7 @@ std::string DesignOptimizerOptions::isValid() const {
   if (stallWindow < 1 || !(stallRelativeDecrease >= 0 && stallRelativeDecrease < 1))
     return "the stall window must be at least 1 and its relative decrease in [0, 1)";
   if (std::string why = bfgs.isValid(); !why.empty()) return "BFGS: " + why;
+  if (std::string why = trustRegion.isValid(); !why.empty()) return "Newton-CG: " + why;
   return newton.isValid();
 }
 
@@ -104,10 +116,24 @@ ReducedObjective::ReducedObjective(SceneModel& model, const DesignSpace& space, 
 bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& states) {
   const int n = model_.numPoses();
   states = warm_;
+  std::vector<Eigen::VectorXd> prediction = std::move(prediction_);
+  prediction_.clear();
   std::vector<char> ok(n, 0), restarted(n, 0);
   forEachPose(n, threads_, [&](int p) {
     try {
       PoseSystem& sys = model_.pose(p);
+      if (static_cast<int>(prediction.size()) == n && prediction[p].size() == states[p].u.size() &&
+          states[p].loadFactor == 1.0) {
+        // Start from the prediction when it is closer to equilibrium (smaller
+        // force residual under the new design) than the warm start.
+        sys.setState(states[p]);
+        double e;
+        Eigen::VectorXd gw, gp;
+        sys.evaluate(states[p].u, d, e, gw, false);
+        const Eigen::VectorXd up = states[p].u + prediction[p];
+        sys.evaluate(up, d, e, gp, false);
+        if (gp.allFinite() && sys.forceResidual(gp).norm() < sys.forceResidual(gw).norm()) states[p].u = up;
+      }
       const NewtonReport r = solveEquilibrium(sys, d, states[p], newton_);
       ok[p] = r.converged && states[p].loadFactor == 1.0;
       restarted[p] = r.loadSteps > 1;
@@ -381,6 +407,38 @@ long peakResidentMemory() {
 
 namespace {
 
+// How a phase of the reduced or Newton method ended, from its minimizer's status.
+void setPhaseEnd(const Status& status, int iterations, bool targetsMet, const PhaseTask& task, PhaseContext& ctx,
+                 PhaseResult& out) {
+  Outcome o = status.outcome;
+  // A phase cut by the run's limits inside an evaluation (its line search or
+  // its trial step then fails) ends for that reason.
+  if (o != Outcome::Converged && ctx.limitReached()) o = ctx.interrupted() ? Outcome::Interrupted : Outcome::TimeLimit;
+  out.message = status.message;
+  if (targetsMet) out.end = PhaseEnd::TargetsMet;
+  else if (o == Outcome::TimeLimit) out.end = PhaseEnd::TimeLimit;
+  else if (o == Outcome::Interrupted) out.end = PhaseEnd::Interrupted;
+  else if (o == Outcome::MaxIterations)
+    out.end = iterations >= task.remainingIterations ? PhaseEnd::IterationLimit : PhaseEnd::PhaseCap;
+  else if (o == Outcome::Stalled) out.end = PhaseEnd::Stalled;
+  else if (o == Outcome::Converged) out.end = PhaseEnd::Converged;
+  else {
+    out.end = PhaseEnd::Failed;
+    out.failure = o;
+  }
+}
+
+// The iteration cap of a phase: radius levels maxLevelIterations, phases of
+// the alternation (the last one included) maxPhaseIterations; the last phase
+// of a schedule without alternation (joint, radii only, rest shape only) is
+// the whole rest of the run and only has the run's limits.
+int phaseIterationCap(const PhaseTask& task, const DesignOptimizerOptions& opt) {
+  const int cap = task.step.round > 0 ? opt.maxPhaseIterations
+                  : task.lastPhase    ? task.remainingIterations
+                                      : opt.maxLevelIterations;
+  return std::min(task.remainingIterations, cap);
+}
+
 // The reduced method's phase: BFGS with a projected line search
 // (solver/bfgs.hh) on the phase's scaled variables, every evaluation solving
 // the equilibria (ReducedObjective).
@@ -404,14 +462,8 @@ class ReducedPhaseSolver : public PhaseSolver {
     const Eigen::VectorXd y0 = space_.pack(phase, task.controls).cwiseQuotient(s);
     BfgsOptions bo = opt_.bfgs;
     // Every phase stops on the gradient test, on the relative decrease over
-    // a window, and on its cap (radius levels: maxLevelIterations; phases of
-    // the alternation, the last one included: maxPhaseIterations); the last
-    // phase of a schedule without alternation (joint, radii only, rest shape
-    // only) is the whole rest of the run and only has the run's limits.
-    const int cap = task.step.round > 0 ? opt_.maxPhaseIterations
-                    : task.lastPhase    ? task.remainingIterations
-                                        : opt_.maxLevelIterations;
-    bo.maxIterations = std::min(task.remainingIterations, cap);
+    // a window, and on its cap (phaseIterationCap).
+    bo.maxIterations = phaseIterationCap(task, opt_);
     bo.timeLimit = opt_.timeLimit > 0 ? std::max(1e-3, ctx.remainingTime()) : 0.0;
     bo.gradientTolerance = opt_.tolerance;
     bo.relativeDecrease = opt_.phaseRelativeDecrease;
@@ -468,22 +520,7 @@ class ReducedPhaseSolver : public PhaseSolver {
     if (!haveBest && acceptedZ.size() > 0)
       out.candidates.push_back({space_.unpack(phase, acceptedZ, task.controls), acceptedStates});
     out.evaluationSeconds = ro.evaluationSeconds();
-    Outcome o = br.status.outcome;
-    // A phase cut by the run's limits inside an evaluation (its line search
-    // then fails) ends for that reason.
-    if (o != Outcome::Converged && ctx.limitReached()) o = ctx.interrupted() ? Outcome::Interrupted : Outcome::TimeLimit;
-    out.message = br.status.message;
-    if (targetsMet) out.end = PhaseEnd::TargetsMet;
-    else if (o == Outcome::TimeLimit) out.end = PhaseEnd::TimeLimit;
-    else if (o == Outcome::Interrupted) out.end = PhaseEnd::Interrupted;
-    else if (o == Outcome::MaxIterations)
-      out.end = br.iterations >= task.remainingIterations ? PhaseEnd::IterationLimit : PhaseEnd::PhaseCap;
-    else if (o == Outcome::Stalled) out.end = PhaseEnd::Stalled;
-    else if (o == Outcome::Converged) out.end = PhaseEnd::Converged;
-    else {
-      out.end = PhaseEnd::Failed;
-      out.failure = o;
-    }
+    setPhaseEnd(br.status, br.iterations, targetsMet, task, ctx, out);
     return out;
   }
 
@@ -494,11 +531,133 @@ class ReducedPhaseSolver : public PhaseSolver {
   const TargetObjective objective_;
 };
 
+// The Newton method's phase: trust-region Newton-CG (solver/trust_region.hh)
+// on the phase's scaled variables y = z / designVariableScale, values from
+// ReducedObjective (equilibria warm-started from the last accepted design),
+// gradient and exact Hessian products from ReducedHessian at every accepted
+// design.
+class NewtonPhaseSolver : public PhaseSolver {
+ public:
+  NewtonPhaseSolver(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt)
+      : model_(model), space_(space), opt_(opt), objective_(model.scene(), model.effects()) {}
+
+  bool iteratesAreEquilibria() const override { return true; }
+
+  PhaseResult solvePhase(const PhaseTask& task, PhaseContext& ctx) override {
+    const DesignPhase& phase = task.step.phase;
+    PhaseResult out;
+    ReducedObjective ro(model_, space_, objective_, phase, task.controls, opt_.newton, opt_.threads, task.states);
+    ro.setStop([&ctx] { return ctx.limitReached(); });
+    ReducedHessian rh(model_, space_, objective_, phase, opt_.threads);
+    const Eigen::VectorXd s = designVariableScale(space_, phase, model_.scene());
+    Eigen::VectorXd lo, hi;
+    space_.bounds(phase, lo, hi);
+    const Eigen::VectorXd y0 = space_.pack(phase, task.controls).cwiseQuotient(s);
+    TrustRegionOptions to = opt_.trustRegion;
+    to.maxIterations = phaseIterationCap(task, opt_);
+    to.timeLimit = opt_.timeLimit > 0 ? std::max(1e-3, ctx.remainingTime()) : 0.0;
+    to.gradientTolerance = opt_.tolerance;
+    to.relativeDecrease = opt_.phaseRelativeDecrease;
+    to.stallWindow = opt_.phaseWindow;
+    // The radius the last phase of this kind ended with: the alternation
+    // comes back to the same variables, whose scale of good steps it knows.
+    const int kind = (phase.radii ? 1 : 0) + (phase.restShape ? 2 : 0);
+    if (radius_[kind] > 0) to.initialRadius = std::clamp(radius_[kind], 1e3 * to.minRadius, to.maxRadius);
+    double hessianSeconds = 0.0;
+    TrustRegionProblem problem;
+    Eigen::VectorXd preparedZ;  // where rh was last prepared (the last accepted design)
+    problem.value = [&](const Eigen::VectorXd& y, double& f) {
+      const Eigen::VectorXd z = y.cwiseProduct(s);
+      // Trial designs start their equilibria from the first-order prediction.
+      if (preparedZ.size() == z.size()) ro.predict(rh.equilibriumChange(z - preparedZ));
+      return ro.evaluate(z, f, nullptr);
+    };
+    problem.prepare = [&](const Eigen::VectorXd& y, Eigen::VectorXd& g) {
+      const Eigen::VectorXd z = y.cwiseProduct(s);
+      double f;
+      if (!ro.statesAt(z) && !ro.evaluate(z, f, nullptr)) return false;
+      const auto t0 = Clock::now();
+      const bool ok = rh.prepare(z, task.controls, *ro.statesAt(z));
+      preparedZ = ok ? z : Eigen::VectorXd();
+      hessianSeconds += since(t0);
+      if (ok) g = rh.gradient().cwiseProduct(s);
+      return ok;
+    };
+    auto timed = [&](bool gaussNewton) {
+      return [&, gaussNewton](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+        const auto t0 = Clock::now();
+        const Eigen::VectorXd w = v.cwiseProduct(s);
+        Eigen::VectorXd Hv = (gaussNewton ? rh.gaussNewtonProduct(w) : rh.product(w)).cwiseProduct(s);
+        hessianSeconds += since(t0);
+        return Hv;
+      };
+    };
+    problem.hessian = timed(false);
+    problem.gaussNewton = timed(true);
+    TrustRegionCallbacks cb;
+    Eigen::VectorXd acceptedZ;
+    cb.accepted = [&](const Eigen::VectorXd& y) {
+      acceptedZ = y.cwiseProduct(s);
+      ro.accept(acceptedZ);
+    };
+    bool targetsMet = false;
+    cb.stopRequested = [&] { return targetsMet || ctx.interrupted(); };
+    cb.progress = [&](const TrustRegionIterate& it) {
+      if (it.iteration == 0) return;  // the phase's start is the previous phase's end
+      DesignIterate di;
+      di.iteration = task.iterationBase + it.iteration;
+      di.level = phase.level;
+      di.phase = phaseName(phase);
+      di.objective = it.f;
+      di.rms = objective_.rms(ro.lastSumSquared());
+      di.gradientNorm = it.projectedGradientNorm;
+      di.step = it.step;
+      di.elapsed = ctx.elapsed();
+      di.evaluations = it.evaluations;
+      di.cgIterations = it.cgIterations;
+      di.trustRadius = it.radius;
+      ControlValues c;
+      if (acceptedZ.size() > 0) c = space_.unpack(phase, acceptedZ, task.controls);
+      targetsMet = ctx.iterate(di, acceptedZ.size() > 0 ? &c : nullptr, true, true);
+    };
+    const TrustRegionResult tr = minimizeTrustRegion(problem, y0, lo.cwiseQuotient(s), hi.cwiseQuotient(s), to, cb);
+    if (tr.iterations > 0) radius_[kind] = tr.radius;
+    out.iterations = tr.iterations;
+    out.evaluations = tr.evaluations;
+    out.failedEvaluations = tr.failedEvaluations;
+    out.equilibriumRestarts = ro.restarts();
+    if (std::isfinite(tr.f)) {
+      const Eigen::VectorXd z = tr.x.cwiseProduct(s);
+      double f;
+      if (ro.evaluate(z, f, nullptr)) {
+        ro.accept(z);
+        out.candidates.push_back({space_.unpack(phase, z, task.controls), ro.warmStates()});
+      }
+    }
+    out.evaluationSeconds = ro.evaluationSeconds() + hessianSeconds;
+    setPhaseEnd(tr.status, tr.iterations, targetsMet, task, ctx, out);
+    return out;
+  }
+
+ private:
+  SceneModel& model_;
+  const DesignSpace& space_;
+  const DesignOptimizerOptions& opt_;
+  const TargetObjective objective_;
+  double radius_[4] = {0, 0, 0, 0};  // last radius per phase kind (radii 1, rest shape 2, joint 3)
+};
+
 }  // namespace
 
 std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(SceneModel& model, const DesignSpace& space,
                                                     const DesignOptimizerOptions& options) {
   return std::make_unique<ReducedPhaseSolver>(model, space, options);
+}
+
+DesignOptimizerResult optimizeNewton(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
+                                     const DesignProgress& progress) {
+  NewtonPhaseSolver solver(model, space, opt);
+  return runDesign(model, space, opt, solver, progress);
 }
 
 DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,

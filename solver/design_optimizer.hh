@@ -30,6 +30,7 @@
 #include "solver/design_monitor.hh"
 #include "solver/equilibrium.hh"
 #include "solver/newton.hh"
+#include "solver/trust_region.hh"
 
 #include <limits>
 #include <functional>
@@ -87,6 +88,13 @@ constexpr double fdForceStep = 6e-6;
 constexpr double fdResolveStep = 1e-4;
 
 BfgsOptions reducedBfgsDefaults();
+// The Newton method's trust region on the same scaled variables: radius 1 at
+// a run's start (a step spanning one radius bound range or a tenth of the
+// mean rod length in 2-norm), at most 100, Stalled below 1e-9; CG to a
+// relative residual of 0.1 (tighter near the solution), at most 300 Hessian
+// products per step; Steihaug's step to the radius on negative curvature
+// (docs/optimization.md, "Newton-CG").
+TrustRegionOptions newtonTrustRegionDefaults();
 
 struct DesignOptimizerOptions {
   int maxIterations = 2000;    // optimizer iterations over the whole schedule (a limit, not the usual end:
@@ -118,6 +126,12 @@ struct DesignOptimizerOptions {
   // search gives up below 1e-9. Its iteration caps, time limit and stopping
   // tests are set per phase from the fields above.
   BfgsOptions bfgs = reducedBfgsDefaults();
+  // The Newton method's trust-region Newton-CG (solver/trust_region.hh) on
+  // the same scaled variables, with exact reduced Hessian products
+  // (solver/reduced_hessian.hh); iteration caps, time limit and stopping
+  // tests per phase as for BFGS. A phase starts with the radius the last
+  // phase of the same kind (radii, rest shape, joint) ended with.
+  TrustRegionOptions trustRegion = newtonTrustRegionDefaults();
   std::function<bool()> stopRequested;  // SIGINT
   // Re-solve the optimizer's designs on a second thread while it runs
   // (solver/design_monitor.hh): the run holds a design that re-solves from
@@ -138,6 +152,10 @@ struct DesignIterate {
   // SAND: the largest equilibrium residual at the iterate (N) and Ipopt's
   // dual infeasibility; 0 for the reduced method (its iterates are equilibria).
   double constraintViolation = 0.0, dualInfeasibility = 0.0;
+  // Newton: Hessian-vector products (CG iterations) of the accepted step and
+  // the trust radius after it; -1 and NaN for the other methods.
+  int cgIterations = -1;
+  double trustRadius = std::numeric_limits<double>::quiet_NaN();
   // The best design confirmed so far (re-solved from rest on the monitor's
   // thread, solver/design_monitor.hh): its RMS (m) and the iteration that
   // offered it; NaN and -1 before the first.
@@ -238,6 +256,11 @@ bool adoptConfirmed(const DesignMonitor& monitor, Outcome outcome, DesignOptimiz
 
 DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
                                       const DesignOptimizerOptions& options, const DesignProgress& progress = {});
+// The reduced-space Newton method: the same objective, schedule and driver,
+// each phase by trust-region Newton-CG with exact Hessian-vector products
+// (docs/optimization.md, "Newton-CG"). Exact design derivatives only.
+DesignOptimizerResult optimizeNewton(SceneModel& model, const DesignSpace& space,
+                                     const DesignOptimizerOptions& options, const DesignProgress& progress = {});
 
 // The reduced objective of one phase as a function of its free variables z:
 // value and adjoint gradient (exposed for tests).
@@ -259,7 +282,16 @@ class ReducedObjective {
   bool evaluate(const Eigen::VectorXd& z, double& f, Eigen::VectorXd* g);
   // Makes the equilibria of the last successful evaluation at z the warm start.
   void accept(const Eigen::VectorXd& z);
+  // For the next solve only: predicted changes of every pose's unknowns from
+  // the warm start (the Newton method's first-order prediction
+  // du = -H^-1 dF/dp dp); a pose starts from the warm start plus its change
+  // when the force residual there is smaller than at the warm start itself.
+  void predict(std::vector<Eigen::VectorXd> du) { prediction_ = std::move(du); }
   const std::vector<PoseState>& warmStates() const { return warm_; }
+  // The equilibria of the last successful evaluation if it was at z, else null.
+  const std::vector<PoseState>* statesAt(const Eigen::VectorXd& z) const {
+    return lastZ_.size() == z.size() && lastZ_ == z ? &lastStates_ : nullptr;
+  }
   double lastSumSquared() const { return lastSumSq_; }
   int failedSolves() const { return failedSolves_; }
   int restarts() const { return restarts_; }
@@ -282,6 +314,7 @@ class ReducedObjective {
   DesignDerivatives derivatives_ = DesignDerivatives::Exact;
   Eigen::VectorXd fdScale_;
   std::function<bool()> stop_;
+  std::vector<Eigen::VectorXd> prediction_;
   // Cache of the last successful evaluation.
   Eigen::VectorXd lastZ_;
   std::vector<PoseState> lastStates_;

@@ -127,7 +127,7 @@ void OptimizeCli::checkRecovery(const std::string& args, const std::string& meth
   ASSERT_GE(a.history->objective.size(), 2u);
   // The reduced method's iterates are equilibria and never raise the
   // objective; SAND's are not equilibria (their violation is archived).
-  if (method == "reduced") {
+  if (method == "reduced" || method == "newton") {
     for (std::size_t i = 1; i < a.history->objective.size(); ++i)
       EXPECT_LE(a.history->objective[i], a.history->objective[i - 1] * (1 + 1e-12));
   }
@@ -210,6 +210,21 @@ TEST_F(OptimizeCli, ReducedRecoversAHiddenDesignAndItsPositionsAreEquilibria) {
   checkRecovery("--method reduced --max-iter 300", "reduced");
 }
 
+TEST_F(OptimizeCli, NewtonRecoversAHiddenDesignAndItsPositionsAreEquilibria) {
+  checkRecovery("--method newton --max-iter 300", "newton");
+}
+
+// --method newton prints the CG iterations and the trust radius of each step.
+TEST_F(OptimizeCli, NewtonProgressShowsCgIterationsAndTrustRadius) {
+  std::string err;
+  const int status = run("optimize scene.json -o out.h5 --method newton --max-iter 3", &err);
+  ASSERT_TRUE(status == 0 || status == 1) << err;
+  EXPECT_NE(err.find("method: newton"), std::string::npos) << err;
+  EXPECT_NE(err.find("schedule joint"), std::string::npos) << err;
+  EXPECT_NE(err.find("  cg "), std::string::npos) << err;
+  EXPECT_NE(err.find("  radius "), std::string::npos) << err;
+}
+
 TEST_F(OptimizeCli, TimeLimitStopsWithAValidArchiveOfTheBestDesign) {
   std::string err;
   const int status = run("optimize scene.json -o out.h5 --method reduced --max-iter 100000 --time-limit 0.3", &err);
@@ -243,7 +258,7 @@ TEST_F(OptimizeCli, FiniteDifferenceDesignDerivativesReduceTheError) {
 TEST_F(OptimizeCli, BadUsageIsExit2AndWritesNothing) {
   const std::vector<std::string> before = files();
   for (const std::string args :
-       {"--method newton", "--method reduced --time-limit -1", "--method reduced --max-iter abc",
+       {"--method gradient", "--method reduced --time-limit -1", "--method reduced --max-iter abc",
         "--method reduced --ipopt tol=1e-3", "--method reduced --threads 0", "--method reduced --tol 2",
         "--method reduced --schedule fast", "--method sand --design-derivatives fd",
         "--method sand --design-derivatives fd-resolve", "--method reduced --design-derivatives central"}) {

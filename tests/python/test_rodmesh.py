@@ -181,6 +181,18 @@ def test_optimize_matches_the_cli_archive(small_cli, tmp_path):
     assert_same_result(rodmesh.load_archive(saved), small_cli)
 
 
+def test_optimize_newton_matches_cli_and_reports_cg(tmp_path):
+    out = tmp_path / "cli.h5"
+    cli("optimize", SMALL, "-o", str(out), "--method", "newton", "--max-iter", "3")
+    seen = []
+    r = rodmesh.optimize(SMALL, method="newton", max_iter=3, callback=lambda i: seen.append(i))
+    assert r.optimize_summary["method"] == "newton"
+    assert r.history["iteration"][-1] <= 3
+    assert_same_result(r, rodmesh.load_archive(out))
+    steps = [i for i in seen if i["iteration"] > 0]
+    assert steps and all(i["cg_iterations"] >= 1 and i["trust_radius"] > 0 for i in steps)
+
+
 def test_optimize_reduced_with_cli_flags(tmp_path):
     out = tmp_path / "cli.h5"
     cli("optimize", SMALL, "-o", str(out), "--method", "reduced", "--max-iter", "3")
