@@ -405,10 +405,9 @@ DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, 
   SandScaling scaling;
   scaling.objective = f0;
   double minLoad = std::numeric_limits<double>::infinity(), maxLoad = 0.0;
+  const std::vector<double> loads = sandLoadScales(model, d0, states);  // nlp/sand_nlp.hh
   for (int k = 0; k < K; ++k) {
-    PoseSystem& sys = model.pose(k);
-    sys.setLoadFactor(1.0);
-    const double L = loadScale(sys, d0);
+    const double L = loads[k];
     scaling.load.push_back(std::isfinite(L) && L > 0 ? L : 1.0);
     minLoad = std::min(minLoad, scaling.load.back());
     maxLoad = std::max(maxLoad, scaling.load.back());
