@@ -12,7 +12,8 @@
 // Constraints, one block per pose k:  c_k = R_k F_k(u_k, p) / L_k = 0, with
 // F_k = dE_k/du_k, R_k = 1 on position rows and 1 / momentArm on twist rows
 // (the residual in newtons, as the static solver measures it) and L_k the
-// pose's load scale (N, the residual of the rest state under full load): a
+// pose's force scale (N, sandLoadScales below: the applied loads, or with
+// held vertices prescribed away from rest the loads and their reactions): a
 // constraint value of 1e-8 is a residual of 1e-8 of the pose's load.
 //
 // Objective f(x) / f_s, f the contract's 1/2 sum w |q - target|^2 and f_s the
