@@ -106,10 +106,17 @@ std::vector<double> sandLoadScales(SceneModel& model, const Design& d, const std
     if (displaced.empty()) {
       L = loadScale(sys, d);
     } else {
-      sys.setState(states[k]);
-      const double applied = appliedLoadNorm(sys, states[k].u, d);
-      const double reactions = displacedReactions(scene, model.effects(), sys, k, states[k].u, d, displaced);
-      L = std::hypot(applied, reactions);
+      try {
+        sys.setState(states[k]);
+        const double applied = appliedLoadNorm(sys, states[k].u, d);
+        const double reactions = displacedReactions(scene, model.effects(), sys, k, states[k].u, d, displaced);
+        L = std::hypot(applied, reactions);
+      } catch (...) {
+        // The copy of the pose could not be built or evaluated: the rest
+        // state's residual, an overestimate but a force.
+        sys.setTermFilter(PoseSystem::Terms::All);
+        L = loadScale(sys, d);
+      }
     }
     // Loads at round-off (a few ulps of the stiffest edge's force) are none.
     loaded[k] = std::isfinite(L) && L > sys.roundoffForce(d);
