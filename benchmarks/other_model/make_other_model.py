@@ -12,18 +12,18 @@ model of the same sheet:
 
   shell_small   targets from a dense triangle-mesh shell (below) of the
                 sheet's bounding rectangle, the half towards the handle's
-                upper corner ten times softer than the other; gravity in both models; poses: handle
-                lifted; twisted; lifted, twisted and pushed towards the
-                held side (~150 vertices)
+                upper corner ten times softer than the other; gravity in
+                both models; poses: handle lifted; twisted; lifted, twisted
+                and pushed towards the held side (98 vertices)
   shape_small   purely geometric targets: the sheet rolled onto a cylinder
                 from the held side on; twisted into a helicoid; a bulge
                 (non-developable, so that no rod mesh that keeps its rod
-                lengths reaches it); no gravity (~150 vertices)
+                lengths reaches it); no gravity (98 vertices)
   mixed_small   radii free only: shell_small's lift and twist (the rod
                 scene without gravity) and shape_small's bulge, a pose
                 without any load
-  shell_large   shell_small's model on a larger sheet (~700 vertices, the
-                paper sheet's size) for a benchmark row
+  shell_large   shell_small's model on a 4 x 5 cell sheet with 11 vertices
+                per rod (the paper sheet's size) for a benchmark row
 
 The shell is a mass-spring model, a physics rod meshes do not have:
   - stretching: a spring on every triangle edge, energy k/2 (l - l0)^2 with
