@@ -1,5 +1,8 @@
 #include "nlp/sand_nlp.hh"
 
+#include "model/network.hh"
+#include "model/stiffness.hh"
+#include "solver/newton.hh"
 #include "solver/parallel.hh"
 
 #include <algorithm>
@@ -42,7 +45,102 @@ Sparse congruence(const Sparse& JT, const Sparse& Alower, const Sparse& J) {
   return compressed(left * J);
 }
 
+// The applied loads of a pose at u (N, force residual units): the gradient of
+// its gravity and load terms alone.
+double appliedLoadNorm(PoseSystem& sys, const Eigen::VectorXd& u, const Design& d) {
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(sys.numDofs()), part;
+  double e = 0.0;
+  for (const PoseSystem::Terms t : {PoseSystem::Terms::Gravity, PoseSystem::Terms::Forces}) {
+    sys.setTermFilter(t);
+    sys.evaluate(u, d, e, part, false);
+    g += part;
+  }
+  sys.setTermFilter(PoseSystem::Terms::All);
+  return sys.forceResidual(g).stableNorm();
+}
+
+// The reactions (N, 2-norm) of pose k's held vertices prescribed away from
+// their rest positions, at the equilibrium u of `sys`: the energy gradient
+// with respect to their positions, evaluated by a copy of the pose in which
+// they are unknowns (same effects, rest frames as charts, so that its twist
+// unknowns are the material twists).
+double displacedReactions(const Scene& scene, const EffectSet& effects, PoseSystem& sys, int k,
+                          const Eigen::VectorXd& u, const Design& d, const std::vector<int>& displaced) {
+  Scene freed = scene;
+  std::vector<FixedVertex>& fixed = freed.poses[k].fixed;
+  fixed.erase(std::remove_if(fixed.begin(), fixed.end(),
+                             [&](const FixedVertex& f) {
+                               return std::find(displaced.begin(), displaced.end(), f.vertex) != displaced.end();
+                             }),
+              fixed.end());
+  const RodNetwork network(freed);
+  PoseSystem copy(freed, network, effects, k);
+  copy.setLoadFactor(1.0);
+  copy.resetCharts(d);
+  const Eigen::VectorXd v = copy.dofsFrom(sys.positions(u, d), sys.materialTwists(u, d));
+  Eigen::VectorXd g;
+  double e = 0.0;
+  copy.evaluate(v, d, e, g, false);
+  double sum = 0.0;
+  for (int vertex : displaced) {
+    const int dof = copy.vertexDof()[vertex];
+    if (dof >= 0) sum += g.segment(dof, copy.dofsPerVertex()).squaredNorm();
+  }
+  return std::sqrt(sum);
+}
+
 }  // namespace
+
+std::vector<double> sandLoadScales(SceneModel& model, const Design& d, const std::vector<PoseState>& states) {
+  const Scene& scene = model.scene();
+  const int K = model.numPoses();
+  std::vector<double> load(K, 0.0);
+  std::vector<char> loaded(K, 0);
+  for (int k = 0; k < K; ++k) {
+    PoseSystem& sys = model.pose(k);
+    sys.setLoadFactor(1.0);
+    std::vector<int> displaced;
+    for (const FixedVertex& f : scene.poses[k].fixed)
+      if (f.position && (*f.position - d.restPositions[f.vertex]).norm() > 0.0) displaced.push_back(f.vertex);
+    double L = 0.0;
+    if (displaced.empty()) {
+      L = loadScale(sys, d);
+    } else {
+      try {
+        sys.setState(states[k]);
+        const double applied = appliedLoadNorm(sys, states[k].u, d);
+        const double reactions = displacedReactions(scene, model.effects(), sys, k, states[k].u, d, displaced);
+        L = std::hypot(applied, reactions);
+      } catch (...) {
+        // The copy of the pose could not be built or evaluated: the rest
+        // state's residual, an overestimate but a force.
+        sys.setTermFilter(PoseSystem::Terms::All);
+        L = loadScale(sys, d);
+      }
+    }
+    // Loads at round-off (a few ulps of the stiffest edge's force) are none.
+    loaded[k] = std::isfinite(L) && L > sys.roundoffForce(d);
+    load[k] = loaded[k] ? L : 0.0;
+  }
+  const double largest = *std::max_element(load.begin(), load.end());
+  double fallback = largest;
+  if (!(fallback > 0)) {
+    // No pose has loads: E I / l^2 of the mean rod cross-section and the
+    // mean rest edge length.
+    double rt = 0.0, rn = 0.0;
+    for (const Vec2& r : d.radii) {
+      rt += r[0];
+      rn += r[1];
+    }
+    rt /= std::max<std::size_t>(1, d.radii.size());
+    rn /= std::max<std::size_t>(1, d.radii.size());
+    const double l = K > 0 ? model.pose(0).momentArm() : 1.0;
+    fallback = stiffness::bendingOut(scene.material.youngModulus, rt, rn) / (l * l);
+  }
+  for (int k = 0; k < K; ++k)
+    if (!loaded[k]) load[k] = fallback;
+  return load;
+}
 
 SandNlp::SandNlp(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
                  const DesignPhase& phase, const ControlValues& base, const std::vector<PoseState>& states,

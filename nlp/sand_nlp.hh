@@ -12,7 +12,8 @@
 // Constraints, one block per pose k:  c_k = R_k F_k(u_k, p) / L_k = 0, with
 // F_k = dE_k/du_k, R_k = 1 on position rows and 1 / momentArm on twist rows
 // (the residual in newtons, as the static solver measures it) and L_k the
-// pose's load scale (N, the residual of the rest state under full load): a
+// pose's force scale (N, sandLoadScales below: the applied loads, or with
+// held vertices prescribed away from rest the loads and their reactions): a
 // constraint value of 1e-8 is a residual of 1e-8 of the pose's load.
 //
 // Objective f(x) / f_s, f the contract's 1/2 sum w |q - target|^2 and f_s the
@@ -45,6 +46,32 @@ struct SandScaling {
   std::vector<double> load;       // L_k per pose (N)
   Eigen::VectorXd variable;       // s per free design value of the phase
 };
+
+// L_k of every pose (N): the size of the forces that hold the initial
+// design's equilibrium `states` (full load) together, so that a constraint
+// value of 1e-8 means a residual of 1e-8 of what the pose's equilibrium
+// balances.
+//  - A pose whose held vertices stay at their rest positions: the applied
+//    loads (point forces, gravity, twisting moments), the residual of the
+//    rest state (loadScale, solver/newton.hh).
+//  - A pose with held vertices prescribed away from their rest positions:
+//    the applied loads and the reactions of those vertices at the
+//    equilibrium, together (2-norm). The rest state's residual is no force of
+//    the equilibrium there: it is the force that moves the held vertices with
+//    everything else at rest, i.e. the axial stiffness of their edges times
+//    the prescribed displacement, thousands of times the forces of the
+//    equilibrium on a sheet whose handle is lifted by a few centimetres. With
+//    it the constraints' tolerances, Ipopt's filter and the divergence test
+//    would accept residuals of the order of the equilibrium's own forces.
+//  - A pose with neither (its equilibrium is the rest state under every rest
+//    shape; its residual is round-off): the largest scale of the other poses,
+//    or, if no pose has loads, the force that bends a rod of the mean edge
+//    length by one radian over its length (E I / l^2). Scaling such a pose by
+//    its round-off residual would make every constraint value of the pose
+//    about 1e15 times its force.
+// States must carry the charts they were solved in; the model's term filter
+// is left at All.
+std::vector<double> sandLoadScales(SceneModel& model, const Design& design, const std::vector<PoseState>& states);
 
 class SandNlp {
  public:

@@ -338,17 +338,16 @@ class SandPhaseSolver : public PhaseSolver {
   PhaseResult solveWithIpopt(const PhaseTask& task, PhaseContext& ctx);
 };
 
-std::string SandPhaseSolver::prepare(const std::vector<PoseState>&, double f0) {
+std::string SandPhaseSolver::prepare(const std::vector<PoseState>& states, double f0) {
   const Design d0 = space_.toDesign(space_.initialControls(model_.scene()));
   // Scaling: objective relative to the initial design's, constraints
   // relative to each pose's load (newtons).
   scaling_.objective = f0;
   minLoad_ = std::numeric_limits<double>::infinity();
   maxLoad_ = 0.0;
+  const std::vector<double> loads = sandLoadScales(model_, d0, states);  // nlp/sand_nlp.hh
   for (int k = 0; k < model_.numPoses(); ++k) {
-    PoseSystem& sys = model_.pose(k);
-    sys.setLoadFactor(1.0);
-    const double L = loadScale(sys, d0);
+    const double L = loads[k];
     scaling_.load.push_back(std::isfinite(L) && L > 0 ? L : 1.0);
     minLoad_ = std::min(minLoad_, scaling_.load.back());
     maxLoad_ = std::max(maxLoad_, scaling_.load.back());
