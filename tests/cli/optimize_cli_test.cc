@@ -328,7 +328,9 @@ TEST_F(OptimizeCli, SandPassesIpoptOptionsAndReportsAnOptionsFile) {
 
 TEST_F(OptimizeCli, SandTimeLimitStopsWithAValidArchiveOfTheBestDesign) {
   std::string err;
-  const int status = run("optimize scene.json -o out.h5 --max-iter 100000 --time-limit 0.3", &err);
+  // The scene's run converges in about 0.25 s on an idle machine: a limit of
+  // a tenth of that stops it while its first phase runs.
+  const int status = run("optimize scene.json -o out.h5 --max-iter 100000 --time-limit 0.03", &err);
   EXPECT_EQ(status, 1) << err;
   const Archive a = readArchive(path("out.h5"));
   EXPECT_EQ(a.status, "not_converged");
