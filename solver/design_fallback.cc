@@ -36,21 +36,32 @@ bool sameControls(const ControlValues& a, const ControlValues& b) {
          a.radii == b.radii && a.displacement == b.displacement;
 }
 
-void DesignFallbacks::add(const ControlValues& controls, double objective, double rms, const std::string& label) {
+void DesignFallbacks::add(const ControlValues& controls, double objective, double rms, const std::string& label,
+                          bool pinned) {
   if (!std::isfinite(objective) || !std::isfinite(rms) || !controls.radii.allFinite() ||
       !controls.displacement.allFinite())
     return;
-  for (const FallbackDesign& d : designs_)
-    if (sameControls(d.controls, controls)) return;
+  for (FallbackDesign& d : designs_)
+    if (sameControls(d.controls, controls)) {
+      if (pinned && !d.pinned) {
+        d.pinned = true;
+        d.label = label;
+      }
+      return;
+    }
   const auto at = std::upper_bound(designs_.begin(), designs_.end(), objective,
                                    [](double f, const FallbackDesign& d) { return f < d.objective; });
-  designs_.insert(at, FallbackDesign{controls, objective, rms, label});
-  if (static_cast<int>(designs_.size()) <= capacity_) return;
-  // Drop the design closest (by ratio of objectives) to the next better one.
+  designs_.insert(at, FallbackDesign{controls, objective, rms, label, pinned});
+  const auto unpinned = std::count_if(designs_.begin(), designs_.end(), [](const FallbackDesign& d) { return !d.pinned; });
+  if (unpinned <= capacity_) return;
+  // Drop the unpinned design closest (by ratio of objectives) to the next
+  // better one (pinned or not). At least two are unpinned (capacity >= 1),
+  // so one of them has a better neighbour.
   auto logf = [](double f) { return std::log(std::max(f, 1e-300)); };
   std::size_t drop = designs_.size() - 1;
   double closest = std::numeric_limits<double>::infinity();
   for (std::size_t i = 1; i < designs_.size(); ++i) {
+    if (designs_[i].pinned) continue;
     const double gap = logf(designs_[i].objective) - logf(designs_[i - 1].objective);
     if (gap < closest) {
       closest = gap;

@@ -29,18 +29,22 @@ struct FallbackDesign {
   double objective = 0.0;  // f on the optimizer's own equilibria (m^2, contract §4)
   double rms = 0.0;        // m, on the same equilibria
   std::string label;       // where the run had it, e.g. "end of radii level 1 (iteration 37)"
+  bool pinned = false;     // never dropped when the list is full (a design known to re-solve from rest)
 };
 
 // A bounded list of fallback designs, best objective first. When full, the
 // design whose objective is closest (by ratio) to the next better one is
 // dropped, so that the list spans the run's progress rather than crowding
-// round its end, where the designs share the final one's branch. Designs
-// with a non-finite objective or controls equal to one already held are
-// ignored.
+// round its end, where the designs share the final one's branch. A pinned
+// design (one the design monitor re-solved from rest: the one fallback known
+// to be reachable by loading) is never dropped; pinned designs do not count
+// against the capacity. Designs with a non-finite objective or controls
+// equal to one already held are ignored (adding a held design pinned pins it).
 class DesignFallbacks {
  public:
   explicit DesignFallbacks(int capacity = 12) : capacity_(capacity < 1 ? 1 : capacity) {}
-  void add(const ControlValues& controls, double objective, double rms, const std::string& label);
+  void add(const ControlValues& controls, double objective, double rms, const std::string& label,
+           bool pinned = false);
   const std::vector<FallbackDesign>& designs() const { return designs_; }
 
  private:

@@ -389,7 +389,8 @@ bool adoptConfirmed(const DesignMonitor& monitor, Outcome outcome, DesignOptimiz
                     std::vector<PoseState>& states, DesignFallbacks& fallbacks) {
   const std::optional<ConfirmedDesign> best = monitor.best();
   if (!best) return false;
-  fallbacks.add(best->controls, best->objective, best->rms, best->label + " (confirmed from rest during the run)");
+  fallbacks.add(best->controls, best->objective, best->rms, best->label + " (confirmed from rest during the run)",
+                /*pinned=*/true);
   if (outcome == Outcome::Converged || !(best->objective < res.objective)) return false;
   res.controls = best->controls;
   res.design = best->design;

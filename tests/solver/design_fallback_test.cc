@@ -76,6 +76,33 @@ TEST(DesignFallbacks, KeepBestFirstWithinTheirCapacitySpreadOverTheRun) {
   EXPECT_EQ(d[3].label, "design 0");
 }
 
+// The design monitor's confirmed design (re-solved from rest during the run)
+// is pinned: in a full list it would be the one dropped (closest to a better
+// design, as designs near the end of a run are), but it stays, without
+// taking an unpinned design's place; adding a held design pinned pins it.
+TEST(DesignFallbacks, KeepPinnedDesignsBeyondTheirCapacity) {
+  const Scene s = testutil::bentCantilever(2e-3);
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  DesignFallbacks list(3);
+  const double objectives[] = {100, 10, 1};
+  for (int i = 0; i < 3; ++i)
+    list.add(scaledControls(space, s, 1.0 - 0.05 * i), objectives[i], 0.1, "design " + std::to_string(i));
+  list.add(scaledControls(space, s, 0.8), 1.001, 0.1, "confirmed", /*pinned=*/true);
+  list.add(scaledControls(space, s, 0.7), 0.5, 0.1, "design 3");
+  std::vector<std::string> labels;
+  for (const FallbackDesign& d : list.designs()) labels.push_back(d.label);
+  // Unpinned: designs 3, 1, 0 (design 2 was nearest a better one: the
+  // confirmed design, 1.001 against 1, would have been dropped in its place).
+  EXPECT_EQ(labels, (std::vector<std::string>{"design 3", "confirmed", "design 1", "design 0"}));
+  EXPECT_TRUE(list.designs()[1].pinned);
+  // A held design added pinned becomes pinned, with the new label.
+  list.add(scaledControls(space, s, 1.0), 100, 0.1, "design 0 confirmed", /*pinned=*/true);
+  ASSERT_EQ(list.designs().size(), 4u);
+  EXPECT_TRUE(list.designs()[3].pinned);
+  EXPECT_EQ(list.designs()[3].label, "design 0 confirmed");
+}
+
 // An optimizer that designed the inverted equilibrium (its own equilibria on
 // that branch, RMS 0.1 mm there) designed one the loaded arch never reaches:
 // the archived design is marked off the loading path, the gap (about twice
