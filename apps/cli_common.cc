@@ -288,4 +288,13 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
   return a;
 }
 
+Scene spatialScene(const Scene& scene, const EffectSet& inferred) {
+  std::vector<Effect> fx;
+  for (int e = 0; e < kEffectCount; ++e)
+    if (inferred.on[e] || static_cast<Effect>(e) == Effect::Twist) fx.push_back(static_cast<Effect>(e));
+  Scene out = scene;
+  out.effects = fx;
+  return out;
+}
+
 }  // namespace rodmesh::cli

@@ -39,6 +39,12 @@ void checkOptimizeMemory(const Scene& scene, const DesignSpace& space, bool redu
 // Fills the /model part of an archive.
 void describeModel(Archive& a, const RodNetwork& net, const EffectSet& fx, long long dofsPerPose);
 
+// The scene solved in 3D: a copy of `scene` whose "effects" are the
+// inferred ones of `inferred` plus twist (simulate and optimize solve an
+// inferred-planar scene again so when an in-plane equilibrium is unstable
+// out of plane).
+Scene spatialScene(const Scene& scene, const EffectSet& inferred);
+
 // Prints the scene warnings and the effects summary to stderr.
 void printEffects(const EffectSet& fx, const RodNetwork& net, long long dofsPerPose);
 

@@ -120,11 +120,7 @@ OptimizeRun runOptimize(const Scene& scene, SceneModel& model, const DesignSpace
     for (const PoseResult& p : chosen.simulation.poses)
       if (p.outOfPlaneStable && !*p.outOfPlaneStable && unstablePose.empty()) unstablePose = p.name;
   if (!unstablePose.empty()) {
-    std::vector<Effect> fx;
-    for (int e = 0; e < kEffectCount; ++e)
-      if (model.effects().on[e] || static_cast<Effect>(e) == Effect::Twist) fx.push_back(static_cast<Effect>(e));
-    spatialScene = std::make_unique<Scene>(scene);
-    spatialScene->effects = fx;
+    spatialScene = std::make_unique<Scene>(cli::spatialScene(scene, model.effects()));
     spatialModel = std::make_unique<SceneModel>(*spatialScene);
     archiveModel = spatialModel.get();
     const double inPlaneRms = chosen.rms;

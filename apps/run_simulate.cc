@@ -253,11 +253,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
     };
     simulateAll(model, design, o.newton, progress);
     if (outOfPlaneUnstable) {
-      std::vector<Effect> fx;
-      for (int e = 0; e < kEffectCount; ++e)
-        if (model.effects().on[e] || static_cast<Effect>(e) == Effect::Twist) fx.push_back(static_cast<Effect>(e));
-      spatialScene = std::make_unique<Scene>(scene);
-      spatialScene->effects = fx;
+      spatialScene = std::make_unique<Scene>(cli::spatialScene(scene, model.effects()));
       spatialModel = std::make_unique<SceneModel>(*spatialScene);
       SceneModel& model3d = *spatialModel;
       if (!quiet) {

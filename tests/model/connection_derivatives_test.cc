@@ -4,6 +4,7 @@
 // (with reference-frame charts anchored at the rotated state).
 #include "model/pose_system.hh"
 #include "solver/equilibrium.hh"
+#include "tests/testutil/scenes.hh"
 #include "tests/testutil/taylor.hh"
 
 #include <gtest/gtest.h>
@@ -22,31 +23,11 @@ enum class Hard { NearlyCollinear, FlatStar6, StiffnessRatio1000, Rotated179 };
 
 // A star: k rods of two edges each leaving vertex 0 at the given angles in
 // the z = 0 plane (slightly curved), far ends fixed.
+// Rod 0 is thicker by thickScale (stiffness ~ r^4).
 Scene star(const std::vector<double>& angles, double thickScale) {
-  Scene s;
-  s.sourcePath = "<hard-connection>";
-  s.material = Material{2e7, 0.45, 1100.0};
-  s.vertices.push_back(Vec3(0, 0, 0));
-  Pose p;
-  p.name = "p";
-  for (std::size_t r = 0; r < angles.size(); ++r) {
-    const Vec3 dir(std::cos(angles[r]), std::sin(angles[r]), 0.0);
-    const Vec3 side(-dir.y(), dir.x(), 0.0);
-    const int a = static_cast<int>(s.vertices.size());
-    s.vertices.push_back(0.01 * dir + 0.0003 * side);
-    s.vertices.push_back(0.02 * dir + 0.001 * side + Vec3(0, 0, 0.0005));
-    s.rods.push_back(Rod{{0, a, a + 1}, std::nullopt});
-    p.fixed.push_back({a + 1, std::nullopt});
-  }
-  s.normals.assign(s.vertices.size(), Vec3(0, 0, 1));
-  for (std::size_t v = 0; v < s.vertices.size(); ++v) {
-    // Rod 0 (vertices 1, 2) is thicker by thickScale: stiffness ~ r^4.
-    const double scale = (v == 1 || v == 2) ? thickScale : 1.0;
-    s.radii.push_back(scale * Vec2(0.001, 0.0007));
-  }
-  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Twist, Effect::Connections};
-  s.poses.push_back(p);
-  return s;
+  std::vector<Vec3> dirs;
+  for (double a : angles) dirs.push_back(Vec3(std::cos(a), std::sin(a), 0.0));
+  return testutil::connectionStar(dirs, {thickScale});
 }
 
 Scene hardScene(Hard h) {
@@ -136,7 +117,6 @@ TEST_P(HardConnection, GradientHessianAndThirdOrder) {
   EXPECT_TAYLOR_ORDER(taylorTest(gradient, u_, du_, H * du_), kMinOrder);
 
   // Third order: D_v of the Hessian (uu block) along v = du.
-  const int n = s.numDofs();
   auto huu = [&](const Eigen::VectorXd& u) {
     const JointDerivatives j = s.joint(u, design_);
     Eigen::MatrixXd M(j.Huu);  // both triangles stored

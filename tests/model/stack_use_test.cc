@@ -6,6 +6,7 @@
 // changed gives the stack it used (the thread's start-up included).
 #include "model/pose_system.hh"
 #include "solver/equilibrium.hh"
+#include "tests/testutil/scenes.hh"
 
 #include <gtest/gtest.h>
 
@@ -58,29 +59,12 @@ std::size_t stackUse(const std::function<void()>& fn) {
 // and gravity on.
 Scene sixValentStar() {
   constexpr double kPi = 3.14159265358979323846;
-  Scene s;
-  s.sourcePath = "<six-valent star>";
-  s.material = Material{2e7, 0.45, 1100.0};
-  s.gravity = Vec3(0.5, -2.0, -9.81);
-  s.vertices.push_back(Vec3(0, 0, 0));
-  Pose p;
-  p.name = "p";
+  std::vector<Vec3> dirs;
   for (int r = 0; r < 6; ++r) {
     const double a = r * kPi / 3 + 0.1 * r * r;
-    const Vec3 dir(std::cos(a), std::sin(a), 0.2 * std::sin(3.0 * a));
-    const Vec3 side(-dir.y(), dir.x(), 0.0);
-    const int v = static_cast<int>(s.vertices.size());
-    s.vertices.push_back(0.01 * dir + 0.0003 * side);
-    s.vertices.push_back(0.02 * dir + 0.001 * side + Vec3(0, 0, 0.0005));
-    s.rods.push_back(Rod{{0, v, v + 1}, std::nullopt});
-    p.fixed.push_back({v + 1, std::nullopt});
+    dirs.push_back(Vec3(std::cos(a), std::sin(a), 0.2 * std::sin(3.0 * a)));
   }
-  s.normals.assign(s.vertices.size(), Vec3(0, 0, 1));
-  s.radii.assign(s.vertices.size(), Vec2(0.001, 0.0007));
-  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Twist, Effect::Connections,
-                                  Effect::Gravity};
-  s.poses.push_back(p);
-  return s;
+  return testutil::connectionStar(dirs, {}, /*gravity=*/true);
 }
 
 TEST(StackUse, SixValentConnectionEvaluations) {

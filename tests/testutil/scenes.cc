@@ -78,4 +78,32 @@ Scene starNetwork(const StarNetworkOptions& o) {
 
 int tipVertex(const Scene& s) { return s.rods.front().vertices.back(); }
 
+Scene connectionStar(const std::vector<Vec3>& directions, const std::vector<double>& radiusScale, bool gravity) {
+  Scene s;
+  s.sourcePath = "<connection star>";
+  s.material = Material{2e7, 0.45, 1100.0};
+  if (gravity) s.gravity = Vec3(0.5, -2.0, -9.81);
+  s.vertices.push_back(Vec3(0, 0, 0));
+  s.radii.push_back(Vec2(0.001, 0.0007));
+  Pose p;
+  p.name = "p";
+  for (std::size_t r = 0; r < directions.size(); ++r) {
+    const Vec3& dir = directions[r];
+    const Vec3 side(-dir.y(), dir.x(), 0.0);
+    const int a = static_cast<int>(s.vertices.size());
+    s.vertices.push_back(0.01 * dir + 0.0003 * side);
+    s.vertices.push_back(0.02 * dir + 0.001 * side + Vec3(0, 0, 0.0005));
+    const double scale = r < radiusScale.size() ? radiusScale[r] : 1.0;
+    s.radii.push_back(scale * Vec2(0.001, 0.0007));
+    s.radii.push_back(scale * Vec2(0.001, 0.0007));
+    s.rods.push_back(Rod{{0, a, a + 1}, std::nullopt});
+    p.fixed.push_back({a + 1, std::nullopt});
+  }
+  s.normals.assign(s.vertices.size(), Vec3(0, 0, 1));
+  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Twist, Effect::Connections};
+  if (gravity) s.effects->push_back(Effect::Gravity);
+  s.poses.push_back(p);
+  return s;
+}
+
 }  // namespace rodmesh::testutil

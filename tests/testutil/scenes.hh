@@ -46,6 +46,16 @@ struct StarNetworkOptions {
 };
 Scene starNetwork(const StarNetworkOptions& options);
 
+// A connection at vertex 0 with one rod of two edges per direction: rod r
+// runs 0 -> 0.01 dir_r + 0.0003 side_r -> 0.02 dir_r + 0.001 side_r + 0.0005 z
+// (side_r = the xy part of dir_r turned by +90 degrees), its far end fixed, in
+// one pose "p". Radii (0.001, 0.0007) times radiusScale[r] on rod r (empty:
+// 1 everywhere). Material E = 2e7 Pa, nu = 0.45, rho = 1100 kg/m^3; effects
+// stretch, bend, twist, connections, and gravity (0.5, -2, -9.81) when
+// `gravity`.
+Scene connectionStar(const std::vector<Vec3>& directions, const std::vector<double>& radiusScale = {},
+                     bool gravity = false);
+
 // Index of the last vertex of the first rod (the free tip of the builders above).
 int tipVertex(const Scene& s);
 
