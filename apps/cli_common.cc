@@ -252,6 +252,11 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
     h.phase.push_back(it.phase);
     h.confirmedRms.push_back(it.confirmedRms);
   }
+  if (method == "newton")
+    for (const DesignIterate& it : r.history) {
+      h.cgIterations.push_back(it.cgIterations);
+      h.trustRadius.push_back(it.trustRadius);
+    }
   a.history = h;
   ArchiveControlPoints cp;
   cp.radii = chosen.controls.radii;
@@ -270,6 +275,7 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
   s.evaluationSeconds = r.evaluationSeconds;
   s.solverSeconds = r.solverSeconds;
   s.peakMemoryBytes = r.peakMemoryBytes;
+  s.evaluations = r.evaluations;
   if (!chosen.note.empty()) s.message += "; " + chosen.note;
   a.optimize = s;
   a.extraRootAttributes["archived_design"] = chosen.fallback ? chosen.label : "final";

@@ -106,6 +106,8 @@ void checkConsistent(const Archive& a) {
     same(h.confirmedRms.size(), "confirmed_rms", true);
     same(h.gradientNorm.size(), "gradient_norm", true);
     same(h.phase.size(), "phase", true);
+    same(h.cgIterations.size(), "cg_iterations", true);
+    same(h.trustRadius.size(), "trust_radius", true);
   }
   if (a.controlPoints) {
     const ArchiveControlPoints& c = *a.controlPoints;
@@ -149,6 +151,7 @@ void writeContents(const Archive& a, hid_t file) {
     writeScalarAttr<double>(file, "evaluation_time_s", o.evaluationSeconds, H5T_NATIVE_DOUBLE);
     writeScalarAttr<double>(file, "solver_time_s", o.solverSeconds, H5T_NATIVE_DOUBLE);
     writeScalarAttr<long long>(file, "peak_memory_bytes", o.peakMemoryBytes, H5T_NATIVE_LLONG);
+    if (o.evaluations >= 0) writeScalarAttr<long long>(file, "evaluations", o.evaluations, H5T_NATIVE_LLONG);
   }
   for (const auto& [k, v] : a.extraRootAttributes) writeStringAttr(file, k.c_str(), v);
   writeStringDataset(file, "scene", a.sceneJson);
@@ -238,6 +241,10 @@ void writeContents(const Archive& a, hid_t file) {
     if (!hs.phase.empty()) writeStrings(h, "phase", hs.phase);
     if (!hs.confirmedRms.empty())
       writeDoubles(h, "confirmed_rms", hs.confirmedRms.data(), {(hsize_t)hs.confirmedRms.size()});
+    if (!hs.cgIterations.empty())
+      writeInts<long long>(h, "cg_iterations", hs.cgIterations, H5T_STD_I64LE, H5T_NATIVE_LLONG);
+    if (!hs.trustRadius.empty())
+      writeDoubles(h, "trust_radius", hs.trustRadius.data(), {(hsize_t)hs.trustRadius.size()});
   }
 }
 

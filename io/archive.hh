@@ -96,6 +96,11 @@ struct ArchiveHistory {
   // Extension: RMS (m), re-solved from rest, of the best design confirmed so
   // far at this iteration (solver/design_monitor.hh); NaN before the first.
   std::vector<double> confirmedRms;
+  // Extension, Newton method: Hessian-vector products (CG iterations) of the
+  // accepted step (-1 for iterates without one, e.g. the initial design) and
+  // the trust radius after it (NaN likewise).
+  std::vector<long long> cgIterations;
+  std::vector<double> trustRadius;
 };
 
 // The design's control points (contract §4), C of them.
@@ -116,6 +121,10 @@ struct ArchiveOptimizeSummary {
   double evaluationSeconds = 0.0;  // of timeSeconds: in model evaluations (energies, derivatives, Newton)
   double solverSeconds = 0.0;      // of timeSeconds: in the optimizer itself (SAND: Ipopt + MUMPS)
   long long peakMemoryBytes = 0;   // peak resident memory of the process
+  // Extension: objective evaluations of the run (reduced and newton: each
+  // solves every pose's equilibrium; sand: Ipopt's function evaluations);
+  // -1: not written.
+  long long evaluations = -1;
 };
 
 struct Archive {

@@ -472,6 +472,8 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
     o.solverSeconds = r.numberAttr(file, root, "solver_time_s", false).value_or(0.0);
     o.peakMemoryBytes = r.integerAttr(file, root, "peak_memory_bytes", false, 0, std::numeric_limits<long long>::max())
                             .value_or(0);
+    o.evaluations =
+        r.integerAttr(file, root, "evaluations", false, 0, std::numeric_limits<long long>::max()).value_or(-1);
     a.optimize = std::move(o);
   }
   a.sceneJson = r.stringDataset(file, root, "scene");
@@ -610,6 +612,9 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
       h.gradientNorm = r.numbers(hg, hp, "gradient_norm", false, {n}, per).value_or(std::vector<double>());
       h.phase = r.stringSeries(hg, hp, "phase", n, per).value_or(std::vector<std::string>());
       h.confirmedRms = r.numbers(hg, hp, "confirmed_rms", false, {n}, per).value_or(std::vector<double>());
+      h.cgIterations =
+          r.integers<long long>(hg, hp, "cg_iterations", false, n, -1, 1000000000, per).value_or(std::vector<long long>());
+      h.trustRadius = r.numbers(hg, hp, "trust_radius", false, {n}, per).value_or(std::vector<double>());
       a.history = std::move(h);
     }
   }

@@ -131,6 +131,24 @@ void OptimizeCli::checkRecovery(const std::string& args, const std::string& meth
     for (std::size_t i = 1; i < a.history->objective.size(); ++i)
       EXPECT_LE(a.history->objective[i], a.history->objective[i - 1] * (1 + 1e-12));
   }
+  // Every method counts its objective evaluations, at least one per iteration.
+  EXPECT_GE(a.optimize->evaluations, a.optimize->iterations);
+  // Newton's history has the CG iterations and trust radius of every step
+  // (none for the initial design); the other methods' has neither.
+  if (method == "newton") {
+    ASSERT_EQ(a.history->cgIterations.size(), a.history->iteration.size());
+    ASSERT_EQ(a.history->trustRadius.size(), a.history->iteration.size());
+    EXPECT_EQ(a.history->cgIterations[0], -1);
+    long long products = 0;
+    for (std::size_t i = 1; i < a.history->iteration.size(); ++i) {
+      EXPECT_GE(a.history->cgIterations[i], 0) << i;
+      EXPECT_GT(a.history->trustRadius[i], 0.0) << i;
+      products += a.history->cgIterations[i];
+    }
+    EXPECT_GT(products, 0);
+  } else {
+    EXPECT_TRUE(a.history->cgIterations.empty());
+  }
   if (method == "sand") {
     double worst = 0.0;
     for (double v : a.history->constraintViolation) worst = std::max(worst, v);

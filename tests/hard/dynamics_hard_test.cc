@@ -116,7 +116,9 @@ TEST_F(HardDynamics, AbsurdSolverFlagsAreUsageErrors) {
     EXPECT_EQ(r.status, 2) << r.err;
     EXPECT_FALSE(archiveExists());
     EXPECT_NE(r.err.find(c.flag), std::string::npos) << r.err;
-    if (c.flag != "--duration") EXPECT_NE(r.err.find("range"), std::string::npos) << r.err;
+    if (c.flag != "--duration") {
+      EXPECT_NE(r.err.find("range"), std::string::npos) << r.err;
+    }
   }
 }
 
