@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The design study (issue 10): the paper's four experiments (Sheet, Hat, Dino,
-# Smiley) rebuilt as scenes, optimized with SAND and with the reduced method,
+# Smiley) rebuilt as scenes, optimized with SAND, the reduced method (BFGS) and reduced Newton-CG,
 # and reported as Markdown + CSV + PNG naming the machine and the commit.
 #
 #   benchmarks/design_study.sh [--quick] [--reuse] [--rodmesh BIN] [--work DIR]
@@ -9,8 +9,8 @@
 #   --quick        every optimizer run limited to 40 s (the whole command takes
 #                  ~10 min on a loaded 2-core machine, sweeps.py --quick aside);
 #                  results in benchmarks/results/design_study_quick{.md,/}
-#   (default)      every optimizer run limited to 600 s (about 1.5 h for the
-#                  eight runs); results in benchmarks/results/design_study{.md,/}
+#   (default)      every optimizer run limited to 600 s (at most 2 h for the
+#                  twelve runs: each method with its default schedule); results in benchmarks/results/design_study{.md,/}
 #   --reuse        keep archives made with the same binary, scene and limits
 #                  (resume an interrupted study; regenerate the report only)
 #   --work DIR     scenes and archives (default build/design_study[_quick])
@@ -48,7 +48,7 @@ if [ "$quick" = 1 ]; then
   title="Design study, quick run (40 s per optimizer run)"
 else
   name=design_study; limit=${limit:-600}; quickflag=()
-  title="Design study: the paper's four experiments, SAND and reduced"
+  title="Design study: the paper's four experiments, SAND, reduced BFGS and reduced Newton-CG"
 fi
 work=${work:-build/$name}
 results=benchmarks/results

@@ -38,9 +38,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.normpath(os.path.join(HERE, "..", ".."))
 EXPERIMENTS = ["sheet", "hat", "dino", "smiley"]
-METHODS = ["sand", "reduced"]
-METHOD_NAME = {"sand": "SAND", "reduced": "reduced"}
-COLOUR = {"sand": "#1f77b4", "reduced": "#ff7f0e"}
+METHODS = ["sand", "reduced", "newton"]
+METHOD_NAME = {"sand": "SAND", "reduced": "reduced BFGS", "newton": "reduced Newton-CG"}
+COLOUR = {"sand": "#1f77b4", "reduced": "#ff7f0e", "newton": "#2ca02c"}
 # An iterate whose largest equilibrium residual is at most this is counted as
 # a design with known RMS (the reduced method's iterates are equilibria; SAND's
 # are not until its constraints are met).
@@ -121,6 +121,8 @@ def read_run(path):
             eval=float(f.attrs.get("evaluation_time_s", np.nan)),
             solver=float(f.attrs.get("solver_time_s", np.nan)),
             memory=float(f.attrs.get("peak_memory_bytes", np.nan)),
+            evaluations=int(f.attrs.get("evaluations", -1)),
+            cg=int(np.sum(np.maximum(h["cg_iterations"][()], 0))) if "cg_iterations" in h else None,
             initial=rms_of(f, "initial_positions"), final=rms_of(f, "positions"),
             control_points=int(f["design/control_points/rod"].shape[0]), planar=planar,
             dofs=int(f["model"].attrs["dofs_per_pose"]),
@@ -201,7 +203,7 @@ def plot(path, e, runs, limit):
     ax.set_yscale("log")
     ax.set_xlabel("wall time (s), one thread, machine shared")
     ax.set_ylabel("RMS error (mm)")
-    ax.set_title("%s: RMS against time, SAND and reduced" % e.capitalize())
+    ax.set_title("%s: RMS against time, %s" % (e.capitalize(), ", ".join(METHOD_NAME[m] for m in runs)))
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
@@ -230,7 +232,8 @@ def main():
     ap.add_argument("--runs")
     ap.add_argument("--assets", required=True)
     ap.add_argument("--md", required=True)
-    ap.add_argument("--title", default="Design study: the paper's four experiments, SAND and reduced")
+    ap.add_argument("--title", default="Design study: the paper's four experiments, SAND, reduced BFGS and "
+                    "reduced Newton-CG")
     ap.add_argument("--notes")
     ap.add_argument("--no-render", action="store_true")
     ap.add_argument("--command", default="benchmarks/design_study.sh")
@@ -283,12 +286,16 @@ def main():
         w("The machine was shared with other builds and runs: load average %.1f-%.1f (1 min) around the runs "
           "on %d cores, so wall times are upper bounds of what an idle machine gives and vary by tens of "
           "percent between repeats; each run was made once." % (min(loads), max(loads), os.cpu_count() or 0))
-    w("Every run: `rodmesh optimize SCENE --method M --schedule paper --threads 1 --time-limit %s "
-      "--max-iter %s` (OPENBLAS_NUM_THREADS=1). A run stopped by its time limit archives the design the "
+    schedules = sorted({r.get("schedule", "paper") for e in exps for r in results[e].values()})
+    w("Every run: `rodmesh optimize SCENE --method M%s --threads 1 --time-limit %s "
+      "--max-iter %s` (OPENBLAS_NUM_THREADS=1)%s. A run stopped by its time limit archives the design the "
       "optimizer holds, re-solved from rest (status `not_converged`); the paper's runs went to convergence, so where a "
       "limit stopped ours, our RMS is what that many seconds buy, not where the method ends.\n" % (
+          "" if schedules == ["default"] else " --schedule %s" % "/".join(schedules),
           "/".join("%g" % x for x in limits),
-          "/".join(sorted({str(r["max_iter"]) for e in exps for r in results[e].values()}))))
+          "/".join(sorted({str(r["max_iter"]) for e in exps for r in results[e].values()})),
+          ": every method with its default schedule (SAND `levels`, reduced BFGS `paper`, Newton-CG `joint`)"
+          if schedules == ["default"] else ""))
     w("RMS: `sqrt(sum |q - target|^2 / (poses x vertices))`. *Default*: the uniform initial design. "
       "*After radii*: the last iterate of the radius-only levels (0-2) that is an equilibrium "
       "(residual <= %g N). *Final*: the archived design (radii and rest shape), every pose re-solved "
@@ -337,6 +344,11 @@ def main():
         row("%s process wall time" % METHOD_NAME[m], lambda e: get(e, lambda r: fmt_time(r["wall_s"])),
             lambda e: "")
         row("%s iterations" % METHOD_NAME[m], lambda e: get(e, lambda r: r["iterations"]), lambda e: "")
+        row("%s objective evaluations%s" % (METHOD_NAME[m], " (Ipopt's)" if m == "sand" else " (equilibrium solves)"),
+            lambda e: get(e, lambda r: r["evaluations"] if r["evaluations"] >= 0 else "–"), lambda e: "")
+        if m == "newton":
+            row("%s CG iterations (Hessian-vector products)" % METHOD_NAME[m],
+                lambda e: get(e, lambda r: r["cg"] if r["cg"] is not None else "–"), lambda e: "")
         row("%s peak memory (MiB)" % METHOD_NAME[m],
             lambda e: get(e, lambda r: "%.0f" % (r["peak_rss_bytes"] / 2**20)), lambda e: "")
         row("%s status" % METHOD_NAME[m], lambda e: get(e, lambda r: "%s (%s)" % (r["status"], r["message"])),
@@ -402,22 +414,25 @@ def main():
         rs = results[e]
         if len(rs) < 2:
             continue
-        s, rd = rs["sand"], rs["reduced"]
-        win = "SAND" if s["final"] < rd["final"] else "reduced"
-        horizon = min(s["time"], rd["time"])
-        cs = [equilibrium_curve(x) for x in (s, rd)]
-        at = []
-        for t, q in cs:
+        ms = sorted(rs, key=lambda m: rs[m]["final"])
+        horizon = min(r["time"] for r in rs.values())
+        at = {}
+        for m, r in rs.items():
+            t, q = equilibrium_curve(r)
             k = np.where(t <= horizon)[0]
-            at.append(1e3 * q[k[-1]] if len(k) else float("nan"))
-        w("- **%s**: final RMS SAND %.3f mm (%s, %d iterations, %.0f%% of its time in model evaluations, "
-          "%.0f%% in Ipopt/MUMPS) against reduced %.3f mm (%s, %d iterations, %.0f%% in model evaluations "
-          "and Newton solves): **%s** ends lower. Best equilibrium at %.0f s (the shorter run's end): "
-          "SAND %.3f mm, reduced %.3f mm." % (
-              e.capitalize(), 1e3 * s["final"], s["status"], s["iterations"],
-              100 * s["eval"] / max(s["time"], 1e-9), 100 * s["solver"] / max(s["time"], 1e-9),
-              1e3 * rd["final"], rd["status"], rd["iterations"], 100 * rd["eval"] / max(rd["time"], 1e-9),
-              win, horizon, at[0], at[1]))
+            at[m] = 1e3 * q[k[-1]] if len(k) else float("nan")
+        parts = []
+        for m in ms:
+            r = rs[m]
+            share = ("%.0f%% in Ipopt/MUMPS" % (100 * r["solver"] / max(r["time"], 1e-9)) if m == "sand" else
+                     "%d equilibrium solves" % r["evaluations"] if r["evaluations"] >= 0 else "")
+            parts.append("%s %.3f mm (%s, %s, %d iterations%s%s)" % (
+                METHOD_NAME[m], 1e3 * r["final"], r["status"], fmt_time(r["time"]), r["iterations"],
+                ", " + share if share else "",
+                ", %d CG iterations" % r["cg"] if m == "newton" and r["cg"] is not None else ""))
+        w("- **%s**: final RMS, lowest first: %s. Best equilibrium at %.0f s (the shortest run's end): %s." % (
+            e.capitalize(), "; ".join(parts), horizon,
+            ", ".join("%s %.3f mm" % (METHOD_NAME[m], at[m]) for m in ms)))
     w("")
 
     # ---- pictures

@@ -1,10 +1,14 @@
 #!/usr/bin/python3
-"""Runs `rodmesh optimize` with both methods on every design-study scene, one
+"""Runs `rodmesh optimize` with every method on every design-study scene, one
 run after another, each with one thread and a wall-clock limit.
 
     /usr/bin/python3 benchmarks/study/run_study.py --rodmesh build/apps/rodmesh \
         --scenes SCENEDIR --out RUNDIR [--experiments sheet,hat,dino,smiley] \
-        [--methods sand,reduced] [--time-limit 600] [--max-iter 100000] [--reuse]
+        [--methods sand,reduced,newton] [--schedule S] [--time-limit 600] \
+        [--max-iter 100000] [--reuse]
+
+Each method runs with its default schedule (SAND levels, reduced paper,
+newton joint: what a user gets) unless --schedule names one for all.
 
 For each experiment E and method M: RUNDIR/E_M.h5 (the archive), RUNDIR/E_M.log
 (the progress lines) and an entry in RUNDIR/runs.json: the command, exit
@@ -48,7 +52,8 @@ def main():
     ap.add_argument("--scenes", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--experiments", default="sheet,hat,dino,smiley")
-    ap.add_argument("--methods", default="sand,reduced")
+    ap.add_argument("--methods", default="sand,reduced,newton")
+    ap.add_argument("--schedule", default="", help="one schedule for every method (default: each method's own)")
     ap.add_argument("--time-limit", type=float, default=600.0)
     ap.add_argument("--max-iter", type=int, default=100000)
     ap.add_argument("--reuse", action="store_true")
@@ -73,9 +78,11 @@ def main():
             key = "%s_%s" % (e, m)
             out = os.path.join(a.out, key + ".h5")
             log = os.path.join(a.out, key + ".log")
-            cmd = [a.rodmesh, "optimize", scene, "-o", out, "--method", m, "--schedule", "paper",
-                   "--threads", "1", "--time-limit", "%g" % a.time_limit, "--max-iter", str(a.max_iter)]
-            spec = dict(binary=binary, scene=digest(scene), time_limit=a.time_limit, max_iter=a.max_iter)
+            cmd = [a.rodmesh, "optimize", scene, "-o", out, "--method", m] + (
+                ["--schedule", a.schedule] if a.schedule else []) + [
+                "--threads", "1", "--time-limit", "%g" % a.time_limit, "--max-iter", str(a.max_iter)]
+            spec = dict(binary=binary, scene=digest(scene), time_limit=a.time_limit, max_iter=a.max_iter,
+                        schedule=a.schedule or "default")
             old = runs.get(key)
             if a.reuse and old and os.path.exists(out) and all(old.get(k) == v for k, v in spec.items()):
                 print("%s: reusing %s" % (key, out))

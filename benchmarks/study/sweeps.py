@@ -190,7 +190,7 @@ class Study:
         desc = "hex sheet %dx%d cells, K = %d (%d vertices, %d rods), 2 poses, hidden-design targets" % (
             nx, ny, k, len(s["vertices"]), len(s["rods"]))
         rows, runs = [], {}
-        for method in ("reduced", "sand"):
+        for method in ("reduced", "sand", "newton"):
             for tol in self.L["tols"]:
                 self.log("tolerance: %s --tol %g" % (method, tol))
                 out = self.path("tol_%s_%g.h5" % (method, tol))
@@ -208,12 +208,13 @@ class Study:
         write_csv(os.path.join(self.out, "tolerance.csv"), rows)
         fig, ax = plt.subplots(1, 2, figsize=(11, 4))
         for (method, tol), r in runs.items():
-            ax[0].semilogy(r["hist_t"], np.asarray(r["hist_rms"]) * 1e3, "-" if method == "reduced" else "--",
+            ax[0].semilogy(r["hist_t"], np.asarray(r["hist_rms"]) * 1e3,
+                           {"reduced": "-", "sand": "--", "newton": ":"}[method],
                            label="%s %g" % (method, tol))
         ax[0].set_xlabel("time (s)")
         ax[0].set_ylabel("RMS error (mm)")
         ax[0].legend(fontsize=6, ncol=2)
-        for method, mk in (("reduced", "o-"), ("sand", "s--")):
+        for method, mk in (("reduced", "o-"), ("sand", "s--"), ("newton", "^:")):
             rr = [x for x in rows if x["method"] == method]
             if rr:
                 ax[1].loglog([x["tol"] for x in rr], [x["time_s"] for x in rr], mk, label=method + " time (s)")
