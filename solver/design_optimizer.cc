@@ -440,6 +440,87 @@ int phaseIterationCap(const PhaseTask& task, const DesignOptimizerOptions& opt) 
   return std::min(task.remainingIterations, cap);
 }
 
+// What the nested phases (BFGS and Newton-CG, whose iterates are
+// equilibria solved by a ReducedObjective) share: their limits, the
+// progress entry of an accepted iterate, and the candidate a phase ends with.
+class NestedPhase {
+ public:
+  NestedPhase(const PhaseTask& task, PhaseContext& ctx, const DesignSpace& space, const TargetObjective& objective,
+              ReducedObjective& ro, const Eigen::VectorXd& scale)
+      : task_(task), ctx_(ctx), space_(space), objective_(objective), ro_(ro), s_(scale) {}
+
+  // Every phase stops on the gradient test, on the relative decrease over a
+  // window, on its cap (phaseIterationCap) and on the run's time limit.
+  template <class MinimizerOptions>
+  void setLimits(MinimizerOptions& o, const DesignOptimizerOptions& opt) const {
+    o.maxIterations = phaseIterationCap(task_, opt);
+    o.timeLimit = opt.timeLimit > 0 ? std::max(1e-3, ctx_.remainingTime()) : 0.0;
+    o.gradientTolerance = opt.tolerance;
+    o.relativeDecrease = opt.phaseRelativeDecrease;
+    o.stallWindow = opt.phaseWindow;
+  }
+
+  // The minimizer accepted y (scaled variables): the objective keeps its
+  // equilibria as the next warm start.
+  void accept(const Eigen::VectorXd& y) {
+    acceptedZ_ = y.cwiseProduct(s_);
+    ro_.accept(acceptedZ_);
+  }
+  // The progress entry of the minimizer's iteration `iteration` (of this
+  // phase), RMS from the objective's last evaluation (the accepted point's).
+  DesignIterate iterate(int iteration, double f, double projectedGradientNorm, double step, int evaluations) const {
+    DesignIterate di;
+    di.iteration = task_.iterationBase + iteration;
+    di.level = task_.step.phase.level;
+    di.phase = phaseName(task_.step.phase);
+    di.objective = f;
+    di.rms = objective_.rms(ro_.lastSumSquared());
+    di.gradientNorm = projectedGradientNorm;
+    di.step = step;
+    di.elapsed = ctx_.elapsed();
+    di.evaluations = evaluations;
+    return di;
+  }
+  // Hands the entry and the accepted design to the driver.
+  void offer(DesignIterate di) {
+    ControlValues c;
+    if (acceptedZ_.size() > 0) c = space_.unpack(task_.step.phase, acceptedZ_, task_.controls);
+    targetsMet_ = ctx_.iterate(di, acceptedZ_.size() > 0 ? &c : nullptr, true, true);
+  }
+  bool targetsMet() const { return targetsMet_; }
+  bool stopRequested() const { return targetsMet_ || ctx_.interrupted(); }
+
+  // The phase's candidate: the minimizer's best point x (scaled) with its
+  // equilibria (the objective caches the last evaluation; the best point is
+  // usually the last accepted one). After the run's limits an evaluation
+  // that must solve fails: then the last accepted point, whose equilibria
+  // the objective holds.
+  void addCandidate(const Eigen::VectorXd& x, double f, PhaseResult& out) {
+    const std::vector<PoseState> acceptedStates = ro_.warmStates();
+    if (std::isfinite(f)) {
+      const Eigen::VectorXd z = x.cwiseProduct(s_);
+      double fz;
+      if (ro_.evaluate(z, fz, nullptr)) {
+        ro_.accept(z);
+        out.candidates.push_back({space_.unpack(task_.step.phase, z, task_.controls), ro_.warmStates()});
+        return;
+      }
+    }
+    if (acceptedZ_.size() > 0)
+      out.candidates.push_back({space_.unpack(task_.step.phase, acceptedZ_, task_.controls), acceptedStates});
+  }
+
+ private:
+  const PhaseTask& task_;
+  PhaseContext& ctx_;
+  const DesignSpace& space_;
+  const TargetObjective& objective_;
+  ReducedObjective& ro_;
+  const Eigen::VectorXd& s_;
+  Eigen::VectorXd acceptedZ_;  // the last accepted point, unscaled (progress follows accepted points)
+  bool targetsMet_ = false;
+};
+
 // The reduced method's phase: BFGS with a projected line search
 // (solver/bfgs.hh) on the phase's scaled variables, every evaluation solving
 // the equilibria (ReducedObjective).
@@ -462,36 +543,14 @@ class ReducedPhaseSolver : public PhaseSolver {
     space_.bounds(phase, lo, hi);
     const Eigen::VectorXd y0 = space_.pack(phase, task.controls).cwiseQuotient(s);
     BfgsOptions bo = opt_.bfgs;
-    // Every phase stops on the gradient test, on the relative decrease over
-    // a window, and on its cap (phaseIterationCap).
-    bo.maxIterations = phaseIterationCap(task, opt_);
-    bo.timeLimit = opt_.timeLimit > 0 ? std::max(1e-3, ctx.remainingTime()) : 0.0;
-    bo.gradientTolerance = opt_.tolerance;
-    bo.relativeDecrease = opt_.phaseRelativeDecrease;
-    bo.stallWindow = opt_.phaseWindow;
+    NestedPhase np(task, ctx, space_, objective_, ro, s);
+    np.setLimits(bo, opt_);
     BfgsCallbacks cb;
-    Eigen::VectorXd acceptedZ;  // the last accepted point (progress follows accepted)
-    cb.accepted = [&](const Eigen::VectorXd& y) {
-      acceptedZ = y.cwiseProduct(s);
-      ro.accept(acceptedZ);
-    };
-    bool targetsMet = false;
-    cb.stopRequested = [&] { return targetsMet || ctx.interrupted(); };
+    cb.accepted = [&](const Eigen::VectorXd& y) { np.accept(y); };
+    cb.stopRequested = [&] { return np.stopRequested(); };
     cb.progress = [&](const BfgsIterate& it) {
       if (it.iteration == 0) return;  // the phase's start is the previous phase's end
-      DesignIterate di;
-      di.iteration = task.iterationBase + it.iteration;
-      di.level = phase.level;
-      di.phase = phaseName(phase);
-      di.objective = it.f;
-      di.rms = objective_.rms(ro.lastSumSquared());
-      di.gradientNorm = it.projectedGradientNorm;
-      di.step = it.step;
-      di.elapsed = ctx.elapsed();
-      di.evaluations = it.evaluations;
-      ControlValues c;
-      if (acceptedZ.size() > 0) c = space_.unpack(phase, acceptedZ, task.controls);
-      targetsMet = ctx.iterate(di, acceptedZ.size() > 0 ? &c : nullptr, true, true);
+      np.offer(np.iterate(it.iteration, it.f, it.projectedGradientNorm, it.step, it.evaluations));
     };
     auto fobj = [&](const Eigen::VectorXd& y, double& f, Eigen::VectorXd* g) {
       const bool ok = ro.evaluate(y.cwiseProduct(s), f, g);
@@ -503,25 +562,9 @@ class ReducedPhaseSolver : public PhaseSolver {
     out.evaluations = br.evaluations;
     out.failedEvaluations = br.failedEvaluations;
     out.equilibriumRestarts = ro.restarts();
-    // The best point with its equilibria (the objective caches the last
-    // evaluation; the best point is usually the last accepted one). After
-    // the run's limits an evaluation that must solve fails: then the last
-    // accepted point, whose equilibria the objective holds.
-    const std::vector<PoseState> acceptedStates = ro.warmStates();
-    bool haveBest = false;
-    if (std::isfinite(br.f)) {
-      const Eigen::VectorXd z = br.x.cwiseProduct(s);
-      double f;
-      if (ro.evaluate(z, f, nullptr)) {
-        ro.accept(z);
-        out.candidates.push_back({space_.unpack(phase, z, task.controls), ro.warmStates()});
-        haveBest = true;
-      }
-    }
-    if (!haveBest && acceptedZ.size() > 0)
-      out.candidates.push_back({space_.unpack(phase, acceptedZ, task.controls), acceptedStates});
+    np.addCandidate(br.x, br.f, out);
     out.evaluationSeconds = ro.evaluationSeconds();
-    setPhaseEnd(br.status, br.iterations, targetsMet, task, ctx, out);
+    setPhaseEnd(br.status, br.iterations, np.targetsMet(), task, ctx, out);
     return out;
   }
 
@@ -555,11 +598,8 @@ class NewtonPhaseSolver : public PhaseSolver {
     space_.bounds(phase, lo, hi);
     const Eigen::VectorXd y0 = space_.pack(phase, task.controls).cwiseQuotient(s);
     TrustRegionOptions to = opt_.trustRegion;
-    to.maxIterations = phaseIterationCap(task, opt_);
-    to.timeLimit = opt_.timeLimit > 0 ? std::max(1e-3, ctx.remainingTime()) : 0.0;
-    to.gradientTolerance = opt_.tolerance;
-    to.relativeDecrease = opt_.phaseRelativeDecrease;
-    to.stallWindow = opt_.phaseWindow;
+    NestedPhase np(task, ctx, space_, objective_, ro, s);
+    np.setLimits(to, opt_);
     // The radius the last phase of this kind ended with: the alternation
     // comes back to the same variables, whose scale of good steps it knows.
     const int kind = (phase.radii ? 1 : 0) + (phase.restShape ? 2 : 0);
@@ -596,30 +636,14 @@ class NewtonPhaseSolver : public PhaseSolver {
     problem.hessian = timed(false);
     problem.gaussNewton = timed(true);
     TrustRegionCallbacks cb;
-    Eigen::VectorXd acceptedZ;
-    cb.accepted = [&](const Eigen::VectorXd& y) {
-      acceptedZ = y.cwiseProduct(s);
-      ro.accept(acceptedZ);
-    };
-    bool targetsMet = false;
-    cb.stopRequested = [&] { return targetsMet || ctx.interrupted(); };
+    cb.accepted = [&](const Eigen::VectorXd& y) { np.accept(y); };
+    cb.stopRequested = [&] { return np.stopRequested(); };
     cb.progress = [&](const TrustRegionIterate& it) {
       if (it.iteration == 0) return;  // the phase's start is the previous phase's end
-      DesignIterate di;
-      di.iteration = task.iterationBase + it.iteration;
-      di.level = phase.level;
-      di.phase = phaseName(phase);
-      di.objective = it.f;
-      di.rms = objective_.rms(ro.lastSumSquared());
-      di.gradientNorm = it.projectedGradientNorm;
-      di.step = it.step;
-      di.elapsed = ctx.elapsed();
-      di.evaluations = it.evaluations;
+      DesignIterate di = np.iterate(it.iteration, it.f, it.projectedGradientNorm, it.step, it.evaluations);
       di.cgIterations = it.cgIterations;
       di.trustRadius = it.radius;
-      ControlValues c;
-      if (acceptedZ.size() > 0) c = space_.unpack(phase, acceptedZ, task.controls);
-      targetsMet = ctx.iterate(di, acceptedZ.size() > 0 ? &c : nullptr, true, true);
+      np.offer(di);
     };
     const TrustRegionResult tr = minimizeTrustRegion(problem, y0, lo.cwiseQuotient(s), hi.cwiseQuotient(s), to, cb);
     if (tr.iterations > 0) radius_[kind] = tr.radius;
@@ -627,16 +651,9 @@ class NewtonPhaseSolver : public PhaseSolver {
     out.evaluations = tr.evaluations;
     out.failedEvaluations = tr.failedEvaluations;
     out.equilibriumRestarts = ro.restarts();
-    if (std::isfinite(tr.f)) {
-      const Eigen::VectorXd z = tr.x.cwiseProduct(s);
-      double f;
-      if (ro.evaluate(z, f, nullptr)) {
-        ro.accept(z);
-        out.candidates.push_back({space_.unpack(phase, z, task.controls), ro.warmStates()});
-      }
-    }
+    np.addCandidate(tr.x, tr.f, out);
     out.evaluationSeconds = ro.evaluationSeconds() + hessianSeconds;
-    setPhaseEnd(tr.status, tr.iterations, targetsMet, task, ctx, out);
+    setPhaseEnd(tr.status, tr.iterations, np.targetsMet(), task, ctx, out);
     return out;
   }
 
