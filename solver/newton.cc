@@ -106,6 +106,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     return rep;
   }
 
+  const double energyAtStart = E;
   double energyAtTenth = E;
   for (int it = 0;; ++it) {
     if (it == opt.maxIterations - std::max(1, opt.maxIterations / 10)) energyAtTenth = E;
@@ -197,14 +198,22 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     if (it >= opt.maxIterations) {
       // Still progressing (a long descent such as a mechanism's rigid swing,
       // not a stall): over the last tenth of the iterations the energy fell
-      // by more than its round-off and the residual reached a new low.
+      // by more than its round-off, and either the residual reached a new
+      // low or that tenth (of a run of at least 20 iterations) still gained
+      // at least 1 % of the energy the whole run gained. The second case is
+      // a soft structure swinging into its loaded shape from a state near
+      // equilibrium under a small load (the rest state, or one small load
+      // step beyond an equilibrium): its residual grows during the swing and
+      // is not below its initial value until the end, while a stall gains
+      // ever less energy.
       {
         const auto& hist = rep.residualHistory;
         const std::size_t tenth = std::max<std::size_t>(1, hist.size() / 10);
         const double before = *std::min_element(hist.begin(), hist.end() - tenth);
         const double recent = *std::min_element(hist.end() - tenth, hist.end());
-        rep.progressing =
-            hist.size() > tenth && energyAtTenth - E > 1e-12 * std::max(std::abs(E), 1e-300) && recent < before;
+        const double gainedRecently = energyAtTenth - E;
+        rep.progressing = hist.size() > tenth && gainedRecently > 1e-12 * std::max(std::abs(E), 1e-300) &&
+                          (recent < before || (tenth >= 2 && gainedRecently >= 0.01 * (energyAtStart - E)));
       }
       const bool saddle = (small || atFloor) && negative > 0;
       rep.message = saddle ? "reached an unstable equilibrium (negative curvature persists) at the iteration limit"
