@@ -212,7 +212,7 @@ PoseSolveSummary newtonSolveSummary(const PoseResult& pr) {
   return sum;
 }
 
-Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace& space,
+Archive optimizeArchive(const Scene& scene, const SceneModel& model, const DesignSpace& space,
                         const DesignOptimizerResult& r, const ArchivedDesign& chosen, const std::string& method) {
   const Design& design = chosen.design;
   Archive a;
@@ -232,8 +232,7 @@ Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace
     std::vector<Vec3> own = pr.positions;
     if (!chosen.fallback && p < static_cast<int>(r.states.size()) &&
         r.states[p].u.size() == model.pose(p).numDofs()) {
-      model.pose(p).setState(r.states[p]);
-      own = model.pose(p).positions(r.states[p].u, design);
+      own = model.pose(p).positions(r.states[p], design);
     }
     setOptimizeResult(ap, r.initialPositions.size() > static_cast<std::size_t>(p) ? r.initialPositions[p] : pr.positions,
                       own);

@@ -95,7 +95,7 @@ void setOptimizeResult(ArchivePose& p, const std::vector<Vec3>& initialPositions
 // its message; root attribute `archived_design`. Status: converged when the
 // optimizer converged and the final design re-solved; failed after a
 // numerical failure; otherwise not_converged. `method`: sand or reduced.
-Archive optimizeArchive(const Scene& scene, SceneModel& model, const DesignSpace& space,
+Archive optimizeArchive(const Scene& scene, const SceneModel& model, const DesignSpace& space,
                         const DesignOptimizerResult& r, const ArchivedDesign& chosen, const std::string& method);
 
 // Contract §3 RMS error over every pose and vertex, in m; nullopt unless every

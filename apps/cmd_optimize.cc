@@ -208,7 +208,7 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     } catch (const std::invalid_argument& e) {
       throw InputError(scene.sourcePath + ": " + e.what());
     }
-    SceneModel& model = *modelPtr;
+    const SceneModel& model = *modelPtr;
     const DesignSpace& space = *spacePtr;
     checkOptimizeMemory(scene, space, o.method == "reduced");
     if (!quiet) {

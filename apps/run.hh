@@ -74,7 +74,7 @@ struct OptimizeRun {
 // the design it returns (or the best earlier one that re-solves) and builds
 // the archive. `progress` is called once per iteration on the calling thread;
 // o.optimizer.stopRequested stops the run with the best design kept.
-OptimizeRun runOptimize(const Scene& scene, SceneModel& model, const DesignSpace& space, OptimizeOptions& o,
+OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const DesignSpace& space, OptimizeOptions& o,
                         const DesignProgress& progress, bool quiet);
 
 }  // namespace rodmesh::cli

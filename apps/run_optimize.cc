@@ -71,7 +71,7 @@ void checkOptimizeOptions(OptimizeOptions& o) {
   if (std::string why = o.optimizer.isValid(); !why.empty()) throw InputError("optimize: " + why);
 }
 
-OptimizeRun runOptimize(const Scene& scene, SceneModel& model, const DesignSpace& space, OptimizeOptions& o,
+OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const DesignSpace& space, OptimizeOptions& o,
                         const DesignProgress& progress, bool quiet) {
   DesignOptimizerResult r;
 #ifdef RODMESH_HAVE_NLP
@@ -114,7 +114,7 @@ OptimizeRun runOptimize(const Scene& scene, SceneModel& model, const DesignSpace
   // the archived design reproduces it.
   std::unique_ptr<Scene> spatialScene;
   std::unique_ptr<SceneModel> spatialModel;
-  SceneModel* archiveModel = &model;
+  const SceneModel* archiveModel = &model;
   std::string unstablePose;
   if (model.effects().planar && !scene.effects)
     for (const PoseResult& p : chosen.simulation.poses)

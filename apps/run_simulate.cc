@@ -119,7 +119,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
   } catch (const std::invalid_argument& e) {
     throw InputError(scene.sourcePath + ": rods: " + e.what());
   }
-  SceneModel& model = *modelPtr;
+  const SceneModel& model = *modelPtr;
   const Design design = Design::fromScene(scene);
   if (!quiet) printEffects(model.effects(), model.network(), model.pose(0).numDofs());
 
@@ -153,11 +153,13 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
     std::cerr << "\n";
     if (!reason.empty()) std::cerr << "  reason: " << reason << "\n";
   };
-  // A pose solved by a solver that returns only its unknowns.
-  auto addPoseFromDofs = [&](int p, const Eigen::VectorXd& u, const PoseSolveSummary& solve,
+  // A pose solved by a solver that returns its unknowns and charts:
+  // positions and material twists reported at the full load.
+  auto addPoseFromDofs = [&](int p, const Eigen::VectorXd& u, const Charts& charts, const PoseSolveSummary& solve,
                              const std::string& details, const std::string& reason) {
-    PoseSystem& sys = model.pose(p);
-    addPose(p, sys.positions(u, design), sys.materialTwists(u, design), solve, details, reason);
+    const PoseSystem& sys = model.pose(p);
+    const PoseState state{u, charts, 1.0};
+    addPose(p, sys.positions(state, design), sys.materialTwists(state, design), solve, details, reason);
   };
 
   // The 3D scene and model of a planar scene that leaves its plane (below).
@@ -169,7 +171,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
     a.extraRootAttributes["fps"] = std::to_string(o.fps);
     const std::vector<double> masses = lumpedVertexMasses(model.network(), design, scene.material.density);
     for (int p = 0; p < model.numPoses(); ++p) {
-      PoseSystem& sys = model.pose(p);
+      const PoseSystem& sys = model.pose(p);
       const std::string& name = scene.poses[p].name;
       auto progress = [&](int frame, double t, const DynamicsReport& r) {
         if (quiet) return;
@@ -195,7 +197,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
       char details[256];
       std::snprintf(details, sizeof details, "t = %.4f s in %d steps (%d rejected%s), %d Newton iterations", rep.time,
                     rep.steps, rep.rejectedSteps, steps, rep.newtonIterations);
-      addPoseFromDofs(p, frames.finalDofs, solve, details, rep.ok ? "" : rep.message);
+      addPoseFromDofs(p, frames.finalDofs, frames.finalState.charts, solve, details, rep.ok ? "" : rep.message);
       ArchiveFrames af;
       af.name = name;
       af.time = Eigen::Map<const Eigen::VectorXd>(frames.time.data(), frames.time.size());
@@ -205,7 +207,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
   } else if (o.staticSolver == "relaxation") {
     a.extraRootAttributes["solver"] = "relaxation";
     for (int p = 0; p < model.numPoses(); ++p) {
-      PoseSystem& sys = model.pose(p);
+      const PoseSystem& sys = model.pose(p);
       Eigen::VectorXd u = sys.restDofs(design);
       RelaxationOptions ro = o.relaxation;
       if (!quiet)
@@ -214,7 +216,8 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
                        scene.poses[p].name.c_str(), r.iterations, r.relativeResidual, r.finalStep,
                        formatSeconds(r.timeSeconds).c_str());
         };
-      const RelaxationReport rep = relaxEquilibrium(sys, design, u, ro);
+      Charts charts;
+      const RelaxationReport rep = relaxEquilibrium(sys, design, u, ro, &charts);
       PoseSolveSummary solve;
       solve.status = rep.converged ? "converged" : "not_converged";
       solve.iterations = rep.iterations;
@@ -224,7 +227,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
       std::snprintf(details, sizeof details,
                     "%d relaxation iterations, %d kinetic-energy peaks, relative residual %.1e", rep.iterations,
                     rep.restarts, rep.relativeResidual);
-      addPoseFromDofs(p, u, solve, details, rep.converged ? "" : rep.message);
+      addPoseFromDofs(p, u, charts, solve, details, rep.converged ? "" : rep.message);
     }
   } else {
     a.extraRootAttributes["solver"] = "newton";
@@ -255,7 +258,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
     if (outOfPlaneUnstable) {
       spatialScene = std::make_unique<Scene>(cli::spatialScene(scene, model.effects()));
       spatialModel = std::make_unique<SceneModel>(*spatialScene);
-      SceneModel& model3d = *spatialModel;
+      const SceneModel& model3d = *spatialModel;
       if (!quiet) {
         std::cerr << "an in-plane equilibrium is unstable out of plane: solving every pose in 3D with twist\n";
         printEffects(model3d.effects(), model3d.network(), model3d.pose(0).numDofs());

@@ -73,28 +73,29 @@ int main(int argc, char** argv) {
   const Scene scene = readSceneFile(path);
   SceneModel model(scene);
   const Design d = Design::fromScene(scene);
-  PoseSystem& sys = model.pose(0);
-  Eigen::VectorXd u = sys.restDofs(d);
-  solveEquilibrium(sys, d, u, NewtonOptions{});
+  const PoseSystem& sys = model.pose(0);
+  PoseState state = sys.restState(d);
+  solveEquilibrium(sys, d, state, NewtonOptions{});
   Eigen::VectorXd g;
-  double e;
+  Eigen::SparseMatrix<double> H;
   const Eigen::VectorXd lambda = Eigen::VectorXd::Ones(sys.numDofs());
   JointDerivatives j;
   if (!only.empty()) {
     using Terms = PoseSystem::Terms;
-    if (term == "stretch") sys.setTermFilter(Terms::Stretch);
-    else if (term == "bend") sys.setTermFilter(Terms::BendTwist);
-    else if (term == "connection") sys.setTermFilter(Terms::Connection);
-    else if (term == "gravity") sys.setTermFilter(Terms::Gravity);
+    Terms terms = Terms::All;
+    if (term == "stretch") terms = Terms::Stretch;
+    else if (term == "bend") terms = Terms::BendTwist;
+    else if (term == "connection") terms = Terms::Connection;
+    else if (term == "gravity") terms = Terms::Gravity;
     else if (!term.empty()) {
       std::fprintf(stderr, "--term: stretch, bend, connection or gravity, not '%s'\n", term.c_str());
       return 2;
     }
     std::function<void()> fn;
-    if (only == "sim") fn = [&] { sys.evaluate(u, d, e, g, true); };
-    else if (only == "values") fn = [&] { sys.evaluateJoint(u, d, j); };
-    else if (only == "third") fn = [&] { sys.evaluateJoint(u, d, j, &lambda); };
-    else if (only == "product") fn = [&] { sys.designForceProduct(u, d, lambda); };
+    if (only == "sim") fn = [&] { sys.evaluate(state, d, &g, &H, terms); };
+    else if (only == "values") fn = [&] { sys.evaluateJoint(state, d, j, nullptr, terms); };
+    else if (only == "third") fn = [&] { sys.evaluateJoint(state, d, j, &lambda, terms); };
+    else if (only == "product") fn = [&] { sys.designForceProduct(state, d, lambda, nullptr, terms); };
     else {
       std::fprintf(stderr, "--only: sim, values, third or product, not '%s'\n", only.c_str());
       return 2;
@@ -103,10 +104,10 @@ int main(int argc, char** argv) {
     std::printf("%s: %d runs, median %.2f ms, cpu %.2f ms\n", only.c_str(), runs, t.wall, t.cpu);
     return 0;
   }
-  const Timing sim = median([&] { sys.evaluate(u, d, e, g, true); });
-  const Timing values = median([&] { sys.evaluateJoint(u, d, j); });
-  const Timing third = median([&] { sys.evaluateJoint(u, d, j, &lambda); });
-  const Timing product = median([&] { sys.designForceProduct(u, d, lambda); });
+  const Timing sim = median([&] { sys.evaluate(state, d, &g, &H); });
+  const Timing values = median([&] { sys.evaluateJoint(state, d, j); });
+  const Timing third = median([&] { sys.evaluateJoint(state, d, j, &lambda); });
+  const Timing product = median([&] { sys.designForceProduct(state, d, lambda); });
   std::printf("unknowns %d, design parameters %d, pattern nnz: Huu %ld (full), Hup %ld, Hpp %ld (lower)\n",
               sys.numDofs(), d.numParameters(), static_cast<long>(j.Huu.nonZeros()),
               static_cast<long>(j.Hup.nonZeros()), static_cast<long>(j.Hpp.nonZeros()));
@@ -123,14 +124,12 @@ int main(int argc, char** argv) {
                                                    {Terms::Gravity, "gravity"},     {Terms::Forces, "point loads"}};
     std::printf("per term, cpu ms: simulation / joint values / third order / product\n");
     for (const auto& [t, name] : terms) {
-      sys.setTermFilter(t);
-      const Timing s = median([&] { sys.evaluate(u, d, e, g, true); });
-      const Timing v = median([&] { sys.evaluateJoint(u, d, j); });
-      const Timing th = median([&] { sys.evaluateJoint(u, d, j, &lambda); });
-      const Timing p = median([&] { sys.designForceProduct(u, d, lambda); });
+      const Timing s = median([&] { sys.evaluate(state, d, &g, &H, t); });
+      const Timing v = median([&] { sys.evaluateJoint(state, d, j, nullptr, t); });
+      const Timing th = median([&] { sys.evaluateJoint(state, d, j, &lambda, t); });
+      const Timing p = median([&] { sys.designForceProduct(state, d, lambda, nullptr, t); });
       std::printf("  %-12s %8.2f %8.2f %8.2f %8.2f\n", name, s.cpu, v.cpu, th.cpu, p.cpu);
     }
-    sys.setTermFilter(Terms::All);
   }
   return 0;
 }

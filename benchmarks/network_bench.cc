@@ -83,7 +83,7 @@ struct NewtonTiming {
 
 // Full static solve (solveEquilibrium, from rest) at a tolerance; medians of
 // `repeat` runs.
-NewtonTiming timeNewton(PoseSystem& sys, const Design& d, double tol, int repeat, Eigen::VectorXd* solution = nullptr) {
+NewtonTiming timeNewton(const PoseSystem& sys, const Design& d, double tol, int repeat, Eigen::VectorXd* solution = nullptr) {
   std::vector<double> t, ta, tf;
   NewtonTiming out;
   NewtonOptions opt;
@@ -112,20 +112,21 @@ struct EvalCost {
   double energy = 0, gradient = 0, hessian = 0;
 };
 
-EvalCost timeEvaluations(PoseSystem& sys, const Design& d, int repeat) {
-  const Eigen::VectorXd u = sys.restDofs(d);
+EvalCost timeEvaluations(const PoseSystem& sys, const Design& d, int repeat) {
+  const PoseState s{sys.restDofs(d), sys.restCharts(d), 1.0};
   Eigen::VectorXd g;
+  Eigen::SparseMatrix<double> H;
   double e = 0;
   std::vector<double> te, tg, th;
   for (int k = 0; k < repeat; ++k) {
     auto t0 = Clock::now();
-    e += sys.energy(u, d);
+    e += sys.energy(s, d);
     te.push_back(since(t0));
     t0 = Clock::now();
-    sys.evaluate(u, d, e, g, false);
+    e += sys.evaluate(s, d, &g, nullptr);
     tg.push_back(since(t0));
     t0 = Clock::now();
-    sys.evaluate(u, d, e, g, true);
+    e += sys.evaluate(s, d, &g, &H);
     th.push_back(since(t0));
   }
   return {median(te), median(tg), median(th)};
@@ -136,7 +137,7 @@ struct SceneInfo {
   std::string effects;
 };
 
-SceneInfo describe(SceneModel& m) {
+SceneInfo describe(const SceneModel& m) {
   SceneInfo s;
   s.vertices = m.network().numVertices();
   s.edges = m.network().numEdges();
@@ -184,7 +185,7 @@ int main(int argc, char** argv) {
   const Scene scene = readSceneFile(scenePath);
   SceneModel model(scene);
   const Design design = Design::fromScene(scene);
-  PoseSystem& sys = model.pose(0);
+  const PoseSystem& sys = model.pose(0);
   const SceneInfo info = describe(model);
   std::cerr << "scene " << scenePath << ": " << info.vertices << " vertices, " << info.unknowns << " unknowns\n";
 
@@ -220,19 +221,17 @@ int main(int argc, char** argv) {
   };
   std::vector<HistPoint> newtonHist;
   {
-    sys.setLoadFactor(1.0);
     for (int k = 0; k <= headline.iterations + 1; ++k) {
       std::vector<double> t;
       double res = 0;
       for (int r = 0; r < repeat; ++r) {
         const auto t0 = Clock::now();
-        sys.resetCharts(design);
         const double scale = loadScale(sys, design);
-        Eigen::VectorXd u = sys.restDofs(design);
+        PoseState s{sys.restDofs(design), sys.restCharts(design), 1.0};
         NewtonOptions o;
         o.maxIterations = std::max(k, 1);
         double rel = 1.0;
-        if (k > 0) rel = newtonSolve(sys, design, u, scale, 1e-14, o).relativeResidual;
+        if (k > 0) rel = newtonSolve(sys, design, s, scale, 1e-14, o).relativeResidual;
         t.push_back(since(t0));
         res = rel;
       }
@@ -251,7 +250,9 @@ int main(int argc, char** argv) {
             << relax.relativeResidual << " (" << relax.message << ")\n";
   double maxDiff = 0.0;
   {
-    const std::vector<Vec3> a = sys.positions(uNewton, design), b = sys.positions(uRelax, design);
+    const Charts charts = sys.restCharts(design);  // positions do not depend on the charts
+    const std::vector<Vec3> a = sys.positions(PoseState{uNewton, charts, 1.0}, design),
+                            b = sys.positions(PoseState{uRelax, charts, 1.0}, design);
     for (std::size_t v = 0; v < a.size(); ++v) maxDiff = std::max(maxDiff, (a[v] - b[v]).norm());
   }
   // First iteration at which relaxation reached each level.

@@ -71,10 +71,10 @@ int main(int argc, char** argv) {
   std::vector<std::vector<Vec3>> positions(model->numPoses());
   timeStep("solve", repeat, [&] {
     for (int p = 0; p < model->numPoses(); ++p) {
-      PoseSystem& sys = model->pose(p);
-      Eigen::VectorXd u = sys.restDofs(design);
-      solveEquilibrium(sys, design, u, NewtonOptions{});
-      positions[p] = sys.positions(u, design);
+      const PoseSystem& sys = model->pose(p);
+      PoseState state = sys.restState(design);
+      solveEquilibrium(sys, design, state, NewtonOptions{});
+      positions[p] = sys.positions(PoseState{state.u, state.charts, 1.0}, design);
     }
   });
   if (model->effects().planar) {

@@ -84,7 +84,7 @@ Timing timeSolve(const Scene& scene, int repeat) {
   for (int k = 0; k < repeat; ++k) {
     SceneModel model(scene);
     Design d = Design::fromScene(scene);
-    PoseSystem& sys = model.pose(0);
+    const PoseSystem& sys = model.pose(0);
     Eigen::VectorXd u = sys.restDofs(d);
     NewtonOptions opt;
     const auto t0 = std::chrono::steady_clock::now();
@@ -98,7 +98,7 @@ Timing timeSolve(const Scene& scene, int repeat) {
     out.dofs = sys.numDofs();
     out.converged = r.converged;
     out.relResidual = r.relativeResidual;
-    out.x = sys.positions(u, d);
+    out.x = sys.positions(PoseState{u, sys.restCharts(d), 1.0}, d);
   }
   out.solve = median(t);
   out.perIteration = median(ti);

@@ -139,4 +139,11 @@ EffectSet resolveEffects(const Scene& scene, const RodNetwork& net) {
   return fx;
 }
 
+EffectSet spatialVariant(const EffectSet& planar) {
+  EffectSet full = planar;
+  full.planar = false;
+  full.on[static_cast<int>(Effect::Twist)] = true;
+  return full;
+}
+
 }  // namespace rodmesh

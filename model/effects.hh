@@ -40,4 +40,9 @@ bool connectionModelAvailable();
 
 EffectSet resolveEffects(const Scene& scene, const RodNetwork& network);
 
+// The full 3D variant of a planar effect set: the same effects with
+// out-of-plane motion and twist (to judge an in-plane equilibrium's stability
+// against leaving the plane).
+EffectSet spatialVariant(const EffectSet& planar);
+
 }  // namespace rodmesh

@@ -78,19 +78,20 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
       conn_.push_back(st);
     }
 
-  resetCharts(Design::fromScene(scene));
   buildPattern();
 }
 
-void PoseSystem::resetCharts(const Design& d) {
+Charts PoseSystem::restCharts(const Design& d) const {
   const int ne = net_.numEdges();
-  chartT_.resize(ne);
-  chartD_.resize(ne);
+  Charts c;
+  c.tangent.resize(ne);
+  c.director.resize(ne);
   for (int e = 0; e < ne; ++e) {
     const EdgeFrame f = net_.restFrame(e, d.restPositions);
-    chartT_[e] = f.t;
-    chartD_[e] = f.d1;
+    c.tangent[e] = f.t;
+    c.director[e] = f.d1;
   }
+  return c;
 }
 
 namespace {
@@ -103,28 +104,28 @@ Vec3 transportD(const Vec3& a, const Vec3& b, const Vec3& v) {
 double signedAngleD(const Vec3& p, const Vec3& q, const Vec3& t) { return std::atan2(p.cross(q).dot(t), p.dot(q)); }
 }  // namespace
 
-bool PoseSystem::reanchorCharts(const Eigen::VectorXd& u, const Design& d, double cosLimit) {
-  const std::vector<Vec3> x = positions(u, d);
-  bool changed = false;
+std::optional<PoseState> PoseSystem::reanchored(const PoseState& s, const Design& d, double cosLimit) const {
+  const std::vector<Vec3> x = positions(s, d);
+  std::optional<PoseState> out;
   for (int e = 0; e < net_.numEdges(); ++e) {
     const Edge& ed = net_.edges()[e];
     const Vec3 t = (x[ed.b] - x[ed.a]).normalized();
-    if (t.dot(chartT_[e]) >= cosLimit) continue;
-    chartD_[e] = transportD(chartT_[e], t, chartD_[e]).normalized();
-    chartT_[e] = t;
-    changed = true;
+    if (t.dot(s.charts.tangent[e]) >= cosLimit) continue;
+    if (!out) out = s;
+    out->charts.director[e] = transportD(s.charts.tangent[e], t, s.charts.director[e]).normalized();
+    out->charts.tangent[e] = t;
   }
-  return changed;
+  return out;
 }
 
-Eigen::VectorXd PoseSystem::materialTwists(const Eigen::VectorXd& u, const Design& d) const {
-  Eigen::VectorXd th = twists(u);
+Eigen::VectorXd PoseSystem::materialTwists(const PoseState& s, const Design& d) const {
+  Eigen::VectorXd th = twists(s.u);
   if (!twist_) return th;
-  const std::vector<Vec3> x = positions(u, d);
+  const std::vector<Vec3> x = positions(s, d);
   for (int e = 0; e < net_.numEdges(); ++e) {
     const Edge& ed = net_.edges()[e];
     const Vec3 t = (x[ed.b] - x[ed.a]).normalized();
-    const Vec3 ref = transportD(chartT_[e], t, chartD_[e]);
+    const Vec3 ref = transportD(s.charts.tangent[e], t, s.charts.director[e]);
     const EdgeFrame rest = net_.restFrame(e, d.restPositions);
     const Vec3 restRef = transportD(rest.t, t, rest.d1);
     th[e] += signedAngleD(restRef, ref, t);
@@ -136,50 +137,32 @@ Eigen::VectorXd PoseSystem::materialTwists(const Eigen::VectorXd& u, const Desig
 // fixed at an explicit position, moves there from rest with the load factor.
 // A planar scene keeps held vertices in its plane (their rest positions are
 // projected onto it), so that its in-plane unknowns describe it exactly.
-Vec3 PoseSystem::heldPosition(int v, const Design& d) const {
+Vec3 PoseSystem::heldPosition(int v, const Design& d, double loadFactor) const {
   Vec3 r = d.restPositions[v];
   if (D_ == 2) r = fx_.planeOrigin + fx_.planeBasis * (fx_.planeBasis.transpose() * (r - fx_.planeOrigin));
   if (!heldExplicit_[v]) return r;
-  return r + loadFactor_ * (heldTarget_[v] - r);
+  return r + loadFactor * (heldTarget_[v] - r);
 }
 
-double PoseSystem::heldDesignCoefficient(int v) const {
+double PoseSystem::heldDesignCoefficient(int v, double loadFactor) const {
   if (!held_[v]) return 0.0;
-  return heldExplicit_[v] ? 1.0 - loadFactor_ : 1.0;
+  return heldExplicit_[v] ? 1.0 - loadFactor : 1.0;
 }
 
-std::vector<double> PoseSystem::heldCoefficients() const {
+std::vector<double> PoseSystem::heldCoefficients(double loadFactor) const {
   std::vector<double> c(held_.size());
-  for (std::size_t v = 0; v < c.size(); ++v) c[v] = heldDesignCoefficient(static_cast<int>(v));
+  for (std::size_t v = 0; v < c.size(); ++v) c[v] = heldDesignCoefficient(static_cast<int>(v), loadFactor);
   return c;
 }
 
-PoseState PoseSystem::restState(const Design& d) const {
-  PoseState s;
-  s.u = restDofs(d);
-  s.charts.tangent.resize(net_.numEdges());
-  s.charts.director.resize(net_.numEdges());
-  for (int e = 0; e < net_.numEdges(); ++e) {
-    const EdgeFrame f = net_.restFrame(e, d.restPositions);
-    s.charts.tangent[e] = f.t;
-    s.charts.director[e] = f.d1;
-  }
-  s.loadFactor = 0.0;
-  return s;
-}
+PoseState PoseSystem::restState(const Design& d) const { return PoseState{restDofs(d), restCharts(d), 0.0}; }
 
-void PoseSystem::setState(const PoseState& s) {
-  setCharts(s.charts);
-  loadFactor_ = s.loadFactor;
-}
-
-PoseState PoseSystem::state(const Eigen::VectorXd& u) const { return PoseState{u, charts(), loadFactor_}; }
-
-std::vector<Vec3> PoseSystem::positions(const Eigen::VectorXd& u, const Design& d) const {
+std::vector<Vec3> PoseSystem::positions(const PoseState& s, const Design& d) const {
+  const Eigen::VectorXd& u = s.u;
   std::vector<Vec3> x(vertexDof_.size());
   for (std::size_t v = 0; v < x.size(); ++v) {
     const int k = vertexDof_[v];
-    if (k < 0) x[v] = heldPosition(static_cast<int>(v), d);
+    if (k < 0) x[v] = heldPosition(static_cast<int>(v), d, s.loadFactor);
     else if (D_ == 3) x[v] = u.segment<3>(k);
     else x[v] = fx_.planeOrigin + fx_.planeBasis * u.segment<2>(k);
   }
@@ -232,12 +215,14 @@ void PoseSystem::buildPattern() {
   const std::vector<Vec3> x = d0.restPositions;
   const Eigen::VectorXd theta = Eigen::VectorXd::Zero(net_.numEdges());
   const Mat32 B = fx_.planeBasis;
-  const std::vector<double> hc = heldCoefficients();
+  const std::vector<double> hc = heldCoefficients(1.0);
+  const Charts charts = restCharts(d0);
   std::vector<std::vector<int>> stencilDofs;
   withLayout([&](auto Dc, auto TWc) {
     constexpr int D = decltype(Dc)::value;
     constexpr bool TW = decltype(TWc)::value;
-    BuildCtx ctx{&x, &theta, &d0, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
+    BuildCtx ctx{&x, &theta, &d0, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc, &charts, 1.0,
+                 Terms::All};
     forEachStencil<D, TW, false>(ctx, [&](const auto&, const LocalStencil& ls, int) {
       stencilDofs.emplace_back(ls.sdofs, ls.sdofs + ls.ns);
     });
@@ -256,11 +241,11 @@ void PoseSystem::buildPattern() {
     rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
     outer[c + 1] = outer[c] + static_cast<int>(rows.size());
   }
-  hessian_.resize(nDofs_, nDofs_);
-  hessian_.resizeNonZeros(outer[nDofs_]);
-  for (int c = 0; c <= nDofs_; ++c) hessian_.outerIndexPtr()[c] = outer[c];
-  for (int c = 0; c < nDofs_; ++c) std::copy(cols[c].begin(), cols[c].end(), hessian_.innerIndexPtr() + outer[c]);
-  std::fill(hessian_.valuePtr(), hessian_.valuePtr() + outer[nDofs_], 0.0);
+  hessianPattern_.resize(nDofs_, nDofs_);
+  hessianPattern_.resizeNonZeros(outer[nDofs_]);
+  for (int c = 0; c <= nDofs_; ++c) hessianPattern_.outerIndexPtr()[c] = outer[c];
+  for (int c = 0; c < nDofs_; ++c) std::copy(cols[c].begin(), cols[c].end(), hessianPattern_.innerIndexPtr() + outer[c]);
+  std::fill(hessianPattern_.valuePtr(), hessianPattern_.valuePtr() + outer[nDofs_], 0.0);
 
   stencils_.clear();
   stencilSlots_.clear();
@@ -273,9 +258,9 @@ void PoseSystem::buildPattern() {
         int slot = -1;
         if (dofs[i] >= 0 && dofs[j] >= 0) {
           const int r = std::max(dofs[i], dofs[j]), c = std::min(dofs[i], dofs[j]);
-          const int* b = hessian_.innerIndexPtr() + outer[c];
-          const int* e = hessian_.innerIndexPtr() + outer[c + 1];
-          slot = static_cast<int>(std::lower_bound(b, e, r) - hessian_.innerIndexPtr());
+          const int* b = hessianPattern_.innerIndexPtr() + outer[c];
+          const int* e = hessianPattern_.innerIndexPtr() + outer[c + 1];
+          slot = static_cast<int>(std::lower_bound(b, e, r) - hessianPattern_.innerIndexPtr());
         }
         stencilSlots_.push_back(slot);
       }
@@ -284,23 +269,22 @@ void PoseSystem::buildPattern() {
 }
 
 
-double PoseSystem::energy(const Eigen::VectorXd& u, const Design& d) const {
+double PoseSystem::evaluate(const PoseState& s, const Design& d, Eigen::VectorXd* gradient,
+                            Eigen::SparseMatrix<double>* hessian, Terms terms) const {
   detail::SimOut out;
-  withLayout([&](auto Dc, auto TWc) { runSim<decltype(Dc)::value, decltype(TWc)::value>(u, d, out); });
-  return out.energy;
-}
-
-void PoseSystem::evaluate(const Eigen::VectorXd& u, const Design& d, double& e, Eigen::VectorXd& g,
-                          bool wantHessian) {
-  g.setZero(nDofs_);
-  detail::SimOut out;
-  out.gradient = &g;
-  if (wantHessian) {
-    std::fill(hessian_.valuePtr(), hessian_.valuePtr() + hessian_.nonZeros(), 0.0);
-    out.hessian = &hessian_;
+  if (gradient) {
+    gradient->setZero(nDofs_);
+    out.gradient = gradient;
   }
-  withLayout([&](auto Dc, auto TWc) { runSim<decltype(Dc)::value, decltype(TWc)::value>(u, d, out); });
-  e = out.energy;
+  if (hessian) {
+    const bool samePattern = hessian->rows() == nDofs_ && hessian->cols() == nDofs_ &&
+                             hessian->nonZeros() == hessianPattern_.nonZeros() && hessian->isCompressed();
+    if (samePattern) std::fill(hessian->valuePtr(), hessian->valuePtr() + hessian->nonZeros(), 0.0);
+    else *hessian = hessianPattern_;
+    out.hessian = hessian;
+  }
+  withLayout([&](auto Dc, auto TWc) { runSim<decltype(Dc)::value, decltype(TWc)::value>(s, d, terms, out); });
+  return out.energy;
 }
 
 }  // namespace rodmesh

@@ -31,6 +31,8 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include <mutex>
+#include <optional>
 #include <vector>
 
 namespace rodmesh {
@@ -69,6 +71,11 @@ struct PoseState {
   double loadFactor = 0.0;
 };
 
+// A pose model: built once from a scene, its effects and a pose index, and
+// never changed afterwards. Every evaluation is const and takes the state it
+// evaluates at (unknowns, charts, load factor) and the design explicitly, and
+// writes into outputs the caller owns, so that one model serves any number of
+// states, solvers and threads at once.
 class PoseSystem {
  public:
   PoseSystem(const Scene& scene, const RodNetwork& network, const EffectSet& effects, int poseIndex);
@@ -78,73 +85,82 @@ class PoseSystem {
   int dofsPerVertex() const { return D_; }
   bool hasTwist() const { return twist_; }
   int poseIndex() const { return pose_; }
+  const EffectSet& effects() const { return fx_; }
   const std::vector<int>& vertexDof() const { return vertexDof_; }  // first unknown of a vertex, -1 if held
   int thetaDof(int edge) const { return twist_ ? nVertexDofs_ + edge : -1; }
 
-  // Scales point forces, gravity and the prescribed displacements of held
-  // vertices (continuation); 1 is the pose as given.
-  void setLoadFactor(double s) { loadFactor_ = s; }
-  double loadFactor() const { return loadFactor_; }
+  // Which energy terms an evaluation includes (all, or one kind: tests,
+  // diagnostics). Patterns always cover every term.
+  enum class Terms { All, Stretch, BendTwist, Clamp, Gravity, Forces, Connection };
 
   // Unknowns of the rest configuration (held vertices are not unknowns).
   Eigen::VectorXd restDofs(const Design& d) const;
-  // The rest state of a design: rest unknowns, charts at the design's rest
-  // frames, load factor 0.
+  // Reference-frame charts (one per edge): an edge's reference director is the
+  // chart director transported from the chart tangent to its current tangent,
+  // and its twist unknown is the material frame's angle from it. The energy is
+  // smooth except where an edge points against its chart tangent. restCharts:
+  // the rest frames of a design (theta = 0 at rest).
+  using Charts = rodmesh::Charts;
+  Charts restCharts(const Design& d) const;
+  // The rest state of a design: rest unknowns, its rest charts, load factor 0
+  // (the load factor scales point forces, gravity and the prescribed
+  // displacements of held vertices; 1 is the pose as given).
   PoseState restState(const Design& d) const;
-  // Installs a state's charts (and load factor) / captures the current ones with u.
-  void setState(const PoseState& s);
-  PoseState state(const Eigen::VectorXd& u) const;
+  // The state of unknowns u at a load factor, twists measured from the
+  // design's rest frames.
+  PoseState withRestCharts(const Eigen::VectorXd& u, const Design& d, double loadFactor = 1.0) const {
+    return PoseState{u, restCharts(d), loadFactor};
+  }
+  // The state with every chart that has turned more than acos(cosLimit) from
+  // its edge's current tangent moved to the current frame, or nothing when no
+  // chart moves. The material frames, the energy and the equilibria are those
+  // of the given state (a change of coordinates of the twist unknowns).
+  std::optional<PoseState> reanchored(const PoseState& s, const Design& d, double cosLimit = -0.25) const;
+
   // Full positions (held vertices at their prescribed positions under design
-  // d) and edge twist angles (zeros when twist is not simulated). twists()
-  // reports the unknown itself; materialTwists() the angle of each edge's
-  // material frame from d's rest frame transported to the current tangent
-  // (chart-independent).
-  std::vector<Vec3> positions(const Eigen::VectorXd& u, const Design& d) const;
+  // d and the state's load factor) and edge twist angles (zeros when twist is
+  // not simulated). twists() reports the unknown itself; materialTwists() the
+  // angle of each edge's material frame from d's rest frame transported to the
+  // current tangent (chart-independent).
+  std::vector<Vec3> positions(const PoseState& s, const Design& d) const;
   Eigen::VectorXd twists(const Eigen::VectorXd& u) const;
-  Eigen::VectorXd materialTwists(const Eigen::VectorXd& u, const Design& d) const;
+  Eigen::VectorXd materialTwists(const PoseState& s, const Design& d) const;
   // Held vertices: whether v is held, and d(position of v)/d(rest position of
   // v): 1 when held at its rest position under the design (clamped, or fixed
   // without a position), 1 - load factor when fixed at an explicit position.
   bool isHeld(int v) const { return held_[v]; }
-  double heldDesignCoefficient(int v) const;
+  double heldDesignCoefficient(int v, double loadFactor) const;
   // Unknowns from full positions and twists (inverse of the above).
   Eigen::VectorXd dofsFrom(const std::vector<Vec3>& x, const Eigen::VectorXd& theta) const;
 
-  // Total energy; gradient and Hessian w.r.t. u (Hessian: lower triangle,
-  // fixed sparsity pattern built once).
-  double energy(const Eigen::VectorXd& u, const Design& d) const;
-  void evaluate(const Eigen::VectorXd& u, const Design& d, double& energy, Eigen::VectorXd& gradient,
-                bool wantHessian);
-  const Eigen::SparseMatrix<double>& hessian() const { return hessian_; }
+  // The Hessian's fixed sparsity pattern w.r.t. u (lower triangle and the full
+  // diagonal; values zero), built once with the model.
+  const Eigen::SparseMatrix<double>& hessianPattern() const { return hessianPattern_; }
+  // Total energy at a state; with `gradient`, dE/du (resized to numDofs());
+  // with `hessian`, d2E/du2 (lower triangle) in hessianPattern(): a matrix
+  // that does not have that pattern yet is given it once, after which only
+  // its values are written.
+  double evaluate(const PoseState& s, const Design& d, Eigen::VectorXd* gradient,
+                  Eigen::SparseMatrix<double>* hessian, Terms terms = Terms::All) const;
+  double energy(const PoseState& s, const Design& d, Terms terms = Terms::All) const {
+    return evaluate(s, d, nullptr, nullptr, terms);
+  }
 
   // Joint derivatives w.r.t. (u, p); see JointDerivatives. evaluateJoint
-  // fills `out` in the fixed patterns (allocated on first use, then only
-  // values are written); with a direction v, the directional derivatives.
-  void evaluateJoint(const Eigen::VectorXd& u, const Design& d, JointDerivatives& out,
-                     const Eigen::VectorXd* v = nullptr) const;
-  JointDerivatives joint(const Eigen::VectorXd& u, const Design& d) const;
-  JointDerivatives jointDirectional(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& v) const;
-  // The fixed patterns (values zero): Huu full, Hup, Hpp lower.
+  // fills `out` in the fixed patterns (copied into `out` on first use, then
+  // only values are written); with a direction v, the directional derivatives.
+  void evaluateJoint(const PoseState& s, const Design& d, JointDerivatives& out, const Eigen::VectorXd* v = nullptr,
+                     Terms terms = Terms::All) const;
+  JointDerivatives joint(const PoseState& s, const Design& d, Terms terms = Terms::All) const;
+  JointDerivatives jointDirectional(const PoseState& s, const Design& d, const Eigen::VectorXd& v,
+                                    Terms terms = Terms::All) const;
+  // The fixed patterns (values zero): Huu full, Hup, Hpp lower. Built on
+  // first use (once, thread-safe).
   const JointDerivatives& jointPattern() const;
   // First-order products for adjoint gradients, without second derivatives
   // of the design: (dF/dp)^T lambda (size P) and, if asked, (dF/du) lambda.
-  Eigen::VectorXd designForceProduct(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& lambda,
-                                     Eigen::VectorXd* hessianTimesLambda = nullptr) const;
-
-  // Reference-frame charts (one per edge): an edge's reference director is the
-  // chart director transported from the chart tangent to its current tangent,
-  // and its twist unknown is the material frame's angle from it. The energy is
-  // smooth except where an edge points against its chart tangent. By default
-  // the charts are the rest frames of the design (theta = 0 at rest);
-  // reanchorCharts moves the chart of every edge that has turned more than
-  // acos(cosLimit) from it to its current frame, which leaves the material
-  // frames, the energy and the equilibria unchanged (a change of coordinates).
-  using Charts = rodmesh::Charts;
-  void resetCharts(const Design& d);
-  Charts charts() const { return {chartT_, chartD_}; }
-  void setCharts(const Charts& c) { chartT_ = c.tangent; chartD_ = c.director; }
-  bool reanchorCharts(const Eigen::VectorXd& u, const Design& d, double cosLimit = -0.25);
-  const std::vector<Vec3>& chartTangents() const { return chartT_; }
+  Eigen::VectorXd designForceProduct(const PoseState& s, const Design& d, const Eigen::VectorXd& lambda,
+                                     Eigen::VectorXd* hessianTimesLambda = nullptr, Terms terms = Terms::All) const;
 
   // Length that turns moments into forces in residual norms: mean rest edge length.
   double momentArm() const { return momentArm_; }
@@ -161,10 +177,6 @@ class PoseSystem {
   int numClamp() const { return static_cast<int>(clamp_.size()); }
   int numConnectionTerms() const { return static_cast<int>(conn_.size()); }
 
-  // Restrict evaluation to one kind of term (tests, diagnostics).
-  enum class Terms { All, Stretch, BendTwist, Clamp, Gravity, Forces, Connection };
-  void setTermFilter(Terms t) { filter_ = t; }
-
  private:
   struct StretchSt { int edge; };
   struct BendSt { int vertex, e0, e1; };
@@ -175,11 +187,10 @@ class PoseSystem {
     int size = 0;
   };
 
-  Vec3 heldPosition(int v, const Design& d) const;
-  bool use(Terms t) const { return filter_ == Terms::All || filter_ == t; }
+  Vec3 heldPosition(int v, const Design& d, double loadFactor) const;
   void buildPattern();
   void buildJointPattern() const;
-  std::vector<double> heldCoefficients() const;
+  std::vector<double> heldCoefficients(double loadFactor) const;
 
   template <int D, bool TW, bool WithGravity, class Visit>
   void forEachStencil(const detail::BuildCtx& ctx, Visit&& visit) const;
@@ -188,12 +199,13 @@ class PoseSystem {
   template <class F>
   void withLayout(F&& f) const;
   template <int D, bool TW, class Out>
-  void runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const;
+  void runSim(const PoseState& s, const Design& d, Terms terms, Out& out) const;
   template <int D, bool TW, class T>
-  void runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v, JointDerivatives& out) const;
+  void runJoint(const PoseState& s, const Design& d, Terms terms, const Eigen::VectorXd* v,
+                JointDerivatives& out) const;
   template <int D, bool TW>
-  void runProduct(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& lambda, Eigen::VectorXd& outP,
-                  Eigen::VectorXd* outU) const;
+  void runProduct(const PoseState& s, const Design& d, Terms terms, const Eigen::VectorXd& lambda,
+                  Eigen::VectorXd& outP, Eigen::VectorXd* outU) const;
 
   const Scene& scene_;
   const RodNetwork& net_;
@@ -202,11 +214,8 @@ class PoseSystem {
   int D_ = 3;
   bool twist_ = true;
   int nVertexDofs_ = 0, nDofs_ = 0;
-  double loadFactor_ = 1.0;
   double momentArm_ = 1.0;
-  mutable Terms filter_ = Terms::All;  // mutable: patterns are always built with every term
 
-  std::vector<Vec3> chartT_, chartD_;  // per edge
   std::vector<int> vertexDof_;
   std::vector<bool> held_;
   std::vector<bool> heldExplicit_;  // held at an explicit position (not at rest)
@@ -224,14 +233,14 @@ class PoseSystem {
   std::vector<int> stencilDofs_;
   std::vector<int> stencilSlots_;
   std::vector<Stencil> stencils_;
-  Eigen::SparseMatrix<double> hessian_;
+  Eigen::SparseMatrix<double> hessianPattern_;
 
-  // Joint patterns (built on first use): per stencil (gravity included), for
+  // Joint patterns (built once, on first use, under jointOnce_): per stencil (gravity included), for
   // each lower-triangle pair (i >= j) of its JointMap's globals, the value
   // slot it adds to (block << 28 | index into the values of Huu (its lower
   // triangle), Hup or Hpp; -1 for none); Huu's upper triangle is then
   // copied from the lower one: (upper index, lower index) pairs.
-  mutable bool jointReady_ = false;
+  mutable std::once_flag jointOnce_;
   mutable JointDerivatives jointPattern_;
   mutable std::vector<int> jointSlots_;
   mutable std::vector<Stencil> jointStencils_;

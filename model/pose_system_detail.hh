@@ -152,6 +152,11 @@ struct BuildCtx {
   // vertex) under the current load factor (1 when held at its rest position,
   // 1 - load factor when held at an explicit position); unused for free ones.
   const std::vector<double>* heldCoef = nullptr;
+  // The evaluated state's charts and load factor, and the terms evaluated.
+  const Charts* charts = nullptr;
+  double loadFactor = 1.0;
+  PoseSystem::Terms terms = PoseSystem::Terms::All;
+  bool use(PoseSystem::Terms t) const { return terms == PoseSystem::Terms::All || terms == t; }
 };
 
 // Appends vertex v's unknowns to the stencil; returns its first position.
@@ -985,7 +990,7 @@ void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
   const auto& edges = net_.edges();
   const double E = scene_.material.youngModulus, G = scene_.material.shearModulus();
   int sidx = 0;
-  if (use(Terms::Stretch))
+  if (ctx.use(Terms::Stretch))
     for (const StretchSt& s : stretch_) {
       LocalStencil ls;
       const Edge& ed = edges[s.edge];
@@ -998,7 +1003,7 @@ void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
     }
   else
     sidx += static_cast<int>(stretch_.size());
-  if (use(Terms::BendTwist))
+  if (ctx.use(Terms::BendTwist))
     for (const BendSt& s : bend_) {
       LocalStencil ls;
       const int a = edges[s.e0].a, v = s.vertex, c = edges[s.e1].b;
@@ -1006,10 +1011,10 @@ void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
       BendK<D, TW> kern;
       kern.k.n0 = net_.edgeNormals()[s.e0];
       kern.k.n1 = net_.edgeNormals()[s.e1];
-      kern.k.chartT0 = chartT_[s.e0];
-      kern.k.chartD0 = chartD_[s.e0];
-      kern.k.chartT1 = chartT_[s.e1];
-      kern.k.chartD1 = chartD_[s.e1];
+      kern.k.chartT0 = ctx.charts->tangent[s.e0];
+      kern.k.chartD0 = ctx.charts->director[s.e0];
+      kern.k.chartT1 = ctx.charts->tangent[s.e1];
+      kern.k.chartD1 = ctx.charts->director[s.e1];
       kern.k.youngModulus = E;
       kern.k.shearModulus = G;
       kern.k.bend = fx_.has(Effect::Bend);
@@ -1029,15 +1034,15 @@ void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
     }
   else
     sidx += static_cast<int>(bend_.size());
-  if (use(Terms::Clamp))
+  if (ctx.use(Terms::Clamp))
     for (const ClampSt& s : clamp_) {
       LocalStencil ls;
       const Edge& ed = edges[s.edge];
       const int pa = addVertex(ls, ctx, ed.a), pb = addVertex(ls, ctx, ed.b);
       ClampK<D, TW> kern;
       kern.k.n = net_.edgeNormals()[s.edge];
-      kern.k.chartT = chartT_[s.edge];
-      kern.k.chartD = chartD_[s.edge];
+      kern.k.chartT = ctx.charts->tangent[s.edge];
+      kern.k.chartD = ctx.charts->director[s.edge];
       kern.k.youngModulus = E;
       kern.k.shearModulus = G;
       kern.k.bend = fx_.has(Effect::Bend);
@@ -1051,7 +1056,7 @@ void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
     }
   else
     sidx += static_cast<int>(clamp_.size());
-  if (use(Terms::Connection))
+  if (ctx.use(Terms::Connection))
     for (const ConnSt& s : conn_) {
       switch (s.k) {
         case 2: visitConnection<D, TW, 2>(s, ctx, visit, sidx); break;
@@ -1066,9 +1071,9 @@ void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
   else
     sidx += static_cast<int>(conn_.size());
   if constexpr (WithGravity) {
-    if (!fx_.has(Effect::Gravity) || !use(Terms::Gravity)) return;
+    if (!fx_.has(Effect::Gravity) || !ctx.use(Terms::Gravity)) return;
     GravityK<D, TW> kern;
-    kern.k.g = loadFactor_ * *scene_.gravity;
+    kern.k.g = ctx.loadFactor * *scene_.gravity;
     kern.k.density = scene_.material.density;
     kern.B = ctx.B;
     for (const Edge& e : edges) {
@@ -1105,8 +1110,8 @@ void PoseSystem::visitConnection(const ConnSt& s, const BuildCtx& ctx, Visit& vi
   for (int i = 0; i < K; ++i) {
     const Edge& e = edges[s.edges[i]];
     kern.k.n[i] = net_.edgeNormals()[s.edges[i]];
-    kern.k.chartT[i] = chartT_[s.edges[i]];
-    kern.k.chartD[i] = chartD_[s.edges[i]];
+    kern.k.chartT[i] = ctx.charts->tangent[s.edges[i]];
+    kern.k.chartD[i] = ctx.charts->director[s.edges[i]];
     const bool out = e.a == s.vertex;
     kern.off[i] = addEdgeVars(ls, ctx, e.a, e.b, out ? pc : pfar[i], out ? pfar[i] : pc);
   }

@@ -23,11 +23,13 @@ using namespace detail;
 // Gravity and point forces are linear in the positions: they add to the
 // gradient only (no Hessian) in simulation.
 template <int D, bool TW, class Out>
-void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) const {
-  const std::vector<Vec3> x = positions(u, d);
-  const Eigen::VectorXd theta = twists(u);
+void PoseSystem::runSim(const PoseState& s, const Design& d, Terms terms, Out& out) const {
+  const std::vector<Vec3> x = positions(s, d);
+  const Eigen::VectorXd theta = twists(s.u);
   const Mat32 B = fx_.planeBasis;
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, nullptr};
+  const double loadFactor = s.loadFactor;
+  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, nullptr, &s.charts, loadFactor,
+               terms};
   double* hv = out.hessian ? out.hessian->valuePtr() : nullptr;
   auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
     using K = std::decay_t<decltype(kern)>;
@@ -71,8 +73,8 @@ void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) con
     if constexpr (D == 3) out.gradient->template segment<3>(k) -= f;
     else out.gradient->template segment<2>(k) -= B.transpose() * f;
   };
-  if (fx_.has(Effect::Gravity) && use(Terms::Gravity)) {
-    const Vec3 g = loadFactor_ * *scene_.gravity;
+  if (fx_.has(Effect::Gravity) && ctx.use(Terms::Gravity)) {
+    const Vec3 g = loadFactor * *scene_.gravity;
     const double rho = scene_.material.density;
     for (const Edge& e : edges) {
       const double L = (d.restPositions[e.b] - d.restPositions[e.a]).norm();
@@ -83,25 +85,27 @@ void PoseSystem::runSim(const Eigen::VectorXd& u, const Design& d, Out& out) con
       addLoad(e.b, 0.5 * m * g);
     }
   }
-  if (use(Terms::Forces)) {
+  if (ctx.use(Terms::Forces)) {
     for (std::size_t v = 0; v < pointForce_.size(); ++v)
-      if (pointForce_[v].squaredNorm() > 0) addLoad(static_cast<int>(v), loadFactor_ * pointForce_[v]);
+      if (pointForce_[v].squaredNorm() > 0) addLoad(static_cast<int>(v), loadFactor * pointForce_[v]);
     if constexpr (TW)
       for (const auto& [e, m] : edgeMoment_) {
-        out.energy -= loadFactor_ * m * theta[e];
-        if (out.gradient) (*out.gradient)[thetaDof(e)] -= loadFactor_ * m;
+        out.energy -= loadFactor * m * theta[e];
+        if (out.gradient) (*out.gradient)[thetaDof(e)] -= loadFactor * m;
       }
   }
 }
 
 template <int D, bool TW, class T>
-void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd* v,
+void PoseSystem::runJoint(const PoseState& s, const Design& d, Terms terms, const Eigen::VectorXd* v,
                           JointDerivatives& out) const {
-  const std::vector<Vec3> x = positions(u, d);
-  const Eigen::VectorXd theta = twists(u);
+  const std::vector<Vec3> x = positions(s, d);
+  const Eigen::VectorXd theta = twists(s.u);
   const Mat32 B = fx_.planeBasis;
-  const std::vector<double> hc = heldCoefficients();
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
+  const double loadFactor = s.loadFactor;
+  const std::vector<double> hc = heldCoefficients(loadFactor);
+  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc, &s.charts, loadFactor,
+               terms};
   const bool derivative = v != nullptr;
   double* vals[3] = {out.Huu.valuePtr(), out.Hup.valuePtr(), out.Hpp.valuePtr()};
   constexpr int kSlotMask = (1 << kSlotShift) - 1;
@@ -135,9 +139,9 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
   forEachStencil<D, TW, true>(ctx, visit);
 
   // Point forces and twisting moments: linear in the positions and twists.
-  if (use(Terms::Forces)) {
+  if (ctx.use(Terms::Forces)) {
     for (std::size_t vi = 0; vi < pointForce_.size(); ++vi) {
-      const Vec3 f = loadFactor_ * pointForce_[vi];
+      const Vec3 f = loadFactor * pointForce_[vi];
       if (f.squaredNorm() == 0) continue;
       const int k = vertexDof_[vi];
       if (derivative) {
@@ -161,10 +165,10 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
     if constexpr (TW)
       for (const auto& [e, mom] : edgeMoment_) {
         if (derivative) {
-          out.energy -= loadFactor_ * mom * (*v)[thetaDof(e)];
+          out.energy -= loadFactor * mom * (*v)[thetaDof(e)];
         } else {
-          out.energy -= loadFactor_ * mom * theta[e];
-          out.gu[thetaDof(e)] -= loadFactor_ * mom;
+          out.energy -= loadFactor * mom * theta[e];
+          out.gu[thetaDof(e)] -= loadFactor * mom;
         }
       }
   }
@@ -174,13 +178,14 @@ void PoseSystem::runJoint(const Eigen::VectorXd& u, const Design& d, const Eigen
 // along lambda in u-space, by first-order AD whose scalars carry a dual part
 // seeded with lambda (no Hessians formed).
 template <int D, bool TW>
-void PoseSystem::runProduct(const Eigen::VectorXd& u, const Design& d, const Eigen::VectorXd& lambda,
+void PoseSystem::runProduct(const PoseState& s, const Design& d, Terms terms, const Eigen::VectorXd& lambda,
                             Eigen::VectorXd& outP, Eigen::VectorXd* outU) const {
-  const std::vector<Vec3> x = positions(u, d);
-  const Eigen::VectorXd theta = twists(u);
+  const std::vector<Vec3> x = positions(s, d);
+  const Eigen::VectorXd theta = twists(s.u);
   const Mat32 B = fx_.planeBasis;
-  const std::vector<double> hc = heldCoefficients();
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
+  const std::vector<double> hc = heldCoefficients(s.loadFactor);
+  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc, &s.charts, s.loadFactor,
+               terms};
   auto visit = [&](const auto& kern, const LocalStencil& ls, int) {
     using K = std::decay_t<decltype(kern)>;
     constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
@@ -214,11 +219,12 @@ void PoseSystem::runProduct(const Eigen::VectorXd& u, const Design& d, const Eig
 // Explicit instantiations for one unknowns layout (D, TW).
 #define RODMESH_INSTANTIATE_SIM(D, TW)                                                                            \
   template void rodmesh::PoseSystem::runSim<D, TW, rodmesh::detail::SimOut>(                                      \
-      const Eigen::VectorXd&, const rodmesh::Design&, rodmesh::detail::SimOut&) const;
+      const rodmesh::PoseState&, const rodmesh::Design&, rodmesh::PoseSystem::Terms, rodmesh::detail::SimOut&) const;
 #define RODMESH_INSTANTIATE_JOINT(D, TW, T)                                                                       \
-  template void rodmesh::PoseSystem::runJoint<D, TW, T>(const Eigen::VectorXd&, const rodmesh::Design&,            \
-                                                        const Eigen::VectorXd*, rodmesh::JointDerivatives&) const;
+  template void rodmesh::PoseSystem::runJoint<D, TW, T>(const rodmesh::PoseState&, const rodmesh::Design&,        \
+                                                        rodmesh::PoseSystem::Terms, const Eigen::VectorXd*,       \
+                                                        rodmesh::JointDerivatives&) const;
 #define RODMESH_INSTANTIATE_PRODUCT(D, TW)                                                                        \
-  template void rodmesh::PoseSystem::runProduct<D, TW>(const Eigen::VectorXd&, const rodmesh::Design&,             \
-                                                       const Eigen::VectorXd&, Eigen::VectorXd&, Eigen::VectorXd*)  \
-      const;
+  template void rodmesh::PoseSystem::runProduct<D, TW>(const rodmesh::PoseState&, const rodmesh::Design&,         \
+                                                       rodmesh::PoseSystem::Terms, const Eigen::VectorXd&,          \
+                                                       Eigen::VectorXd&, Eigen::VectorXd*) const;

@@ -45,17 +45,15 @@ int slotOf(const Eigen::SparseMatrix<double>& m, int r, int c) {
 // Walks the stencil list once at the scene's rest state (structure only),
 // collects every (global, global) pair of every stencil into the three block
 // patterns, then records each pair's value slot.
+// Called once, under jointOnce_.
 void PoseSystem::buildJointPattern() const {
-  if (jointReady_) return;
-  // The pattern covers every term, whatever filter is active now.
-  const Terms savedFilter = filter_;
-  filter_ = Terms::All;
   const Design d0 = Design::fromScene(scene_);
   const int P = d0.numParameters();
   const std::vector<Vec3> x = d0.restPositions;
   const Eigen::VectorXd theta = Eigen::VectorXd::Zero(net_.numEdges());
   const Mat32 B = fx_.planeBasis;
-  const std::vector<double> hc = heldCoefficients();
+  const std::vector<double> hc = heldCoefficients(1.0);
+  const Charts charts = restCharts(d0);
   struct Globals {
     std::vector<bool> isP;
     std::vector<int> index;
@@ -64,7 +62,8 @@ void PoseSystem::buildJointPattern() const {
   withLayout([&](auto Dc, auto TWc) {
     constexpr int D = decltype(Dc)::value;
     constexpr bool TW = decltype(TWc)::value;
-    BuildCtx ctx{&x, &theta, &d0, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc};
+    BuildCtx ctx{&x, &theta, &d0, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc, &charts, 1.0,
+                 Terms::All};
     forEachStencil<D, TW, true>(ctx, [&](const auto&, const LocalStencil& ls, int) {
       JointMap m;
       buildJointMap(ls, ctx, m);
@@ -117,19 +116,16 @@ void PoseSystem::buildJointPattern() const {
       const int r = jp.Huu.innerIndexPtr()[k];
       if (r < c) jointUpperFromLower_.emplace_back(k, slotOf(jp.Huu, c, r));
     }
-  filter_ = savedFilter;
-  jointReady_ = true;
 }
 
 const JointDerivatives& PoseSystem::jointPattern() const {
-  buildJointPattern();
+  std::call_once(jointOnce_, [this] { buildJointPattern(); });
   return jointPattern_;
 }
 
-void PoseSystem::evaluateJoint(const Eigen::VectorXd& u, const Design& d, JointDerivatives& out,
-                               const Eigen::VectorXd* v) const {
-  buildJointPattern();
-  const JointDerivatives& jp = jointPattern_;
+void PoseSystem::evaluateJoint(const PoseState& s, const Design& d, JointDerivatives& out, const Eigen::VectorXd* v,
+                               Terms terms) const {
+  const JointDerivatives& jp = jointPattern();
   auto samePattern = [](const Eigen::SparseMatrix<double>& a, const Eigen::SparseMatrix<double>& b) {
     return a.rows() == b.rows() && a.cols() == b.cols() && a.nonZeros() == b.nonZeros();
   };
@@ -146,34 +142,34 @@ void PoseSystem::evaluateJoint(const Eigen::VectorXd& u, const Design& d, JointD
   withLayout([&](auto Dc, auto TWc) {
     constexpr int D = decltype(Dc)::value;
     constexpr bool TW = decltype(TWc)::value;
-    if (v) runJoint<D, TW, ad::Dual>(u, d, v, out);
-    else runJoint<D, TW, double>(u, d, nullptr, out);
+    if (v) runJoint<D, TW, ad::Dual>(s, d, terms, v, out);
+    else runJoint<D, TW, double>(s, d, terms, nullptr, out);
   });
   // Huu is symmetric: the stencils fill its lower triangle.
   double* huu = out.Huu.valuePtr();
   for (const auto& [upper, lower] : jointUpperFromLower_) huu[upper] = huu[lower];
 }
 
-JointDerivatives PoseSystem::joint(const Eigen::VectorXd& u, const Design& d) const {
+JointDerivatives PoseSystem::joint(const PoseState& s, const Design& d, Terms terms) const {
   JointDerivatives out;
-  evaluateJoint(u, d, out);
+  evaluateJoint(s, d, out, nullptr, terms);
   return out;
 }
 
-JointDerivatives PoseSystem::jointDirectional(const Eigen::VectorXd& u, const Design& d,
-                                              const Eigen::VectorXd& v) const {
+JointDerivatives PoseSystem::jointDirectional(const PoseState& s, const Design& d, const Eigen::VectorXd& v,
+                                              Terms terms) const {
   JointDerivatives out;
-  evaluateJoint(u, d, out, &v);
+  evaluateJoint(s, d, out, &v, terms);
   return out;
 }
 
-Eigen::VectorXd PoseSystem::designForceProduct(const Eigen::VectorXd& u, const Design& d,
-                                               const Eigen::VectorXd& lambda,
-                                               Eigen::VectorXd* hessianTimesLambda) const {
+Eigen::VectorXd PoseSystem::designForceProduct(const PoseState& s, const Design& d,
+                                               const Eigen::VectorXd& lambda, Eigen::VectorXd* hessianTimesLambda,
+                                               Terms terms) const {
   Eigen::VectorXd outP = Eigen::VectorXd::Zero(d.numParameters());
   if (hessianTimesLambda) hessianTimesLambda->setZero(nDofs_);
   withLayout([&](auto Dc, auto TWc) {
-    runProduct<decltype(Dc)::value, decltype(TWc)::value>(u, d, lambda, outP, hessianTimesLambda);
+    runProduct<decltype(Dc)::value, decltype(TWc)::value>(s, d, terms, lambda, outP, hessianTimesLambda);
   });
   return outP;
 }

@@ -73,7 +73,7 @@ bool ipoptOptionsFilePresent();
 // naming the file, the line, the key and the value (nlp/ipopt_options.cc).
 std::string checkIpoptOptionsFile();
 
-DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, const SandOptions& options,
+DesignOptimizerResult optimizeSand(const SceneModel& model, const DesignSpace& space, const SandOptions& options,
                                    const DesignProgress& progress = {});
 
 }  // namespace rodmesh

@@ -47,15 +47,12 @@ Sparse congruence(const Sparse& JT, const Sparse& Alower, const Sparse& J) {
 
 // The applied loads of a pose at u (N, force residual units): the gradient of
 // its gravity and load terms alone.
-double appliedLoadNorm(PoseSystem& sys, const Eigen::VectorXd& u, const Design& d) {
+double appliedLoadNorm(const PoseSystem& sys, const PoseState& state, const Design& d) {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(sys.numDofs()), part;
-  double e = 0.0;
   for (const PoseSystem::Terms t : {PoseSystem::Terms::Gravity, PoseSystem::Terms::Forces}) {
-    sys.setTermFilter(t);
-    sys.evaluate(u, d, e, part, false);
+    sys.evaluate(state, d, &part, nullptr, t);
     g += part;
   }
-  sys.setTermFilter(PoseSystem::Terms::All);
   return sys.forceResidual(g).stableNorm();
 }
 
@@ -64,8 +61,8 @@ double appliedLoadNorm(PoseSystem& sys, const Eigen::VectorXd& u, const Design& 
 // with respect to their positions, evaluated by a copy of the pose in which
 // they are unknowns (same effects, rest frames as charts, so that its twist
 // unknowns are the material twists).
-double displacedReactions(const Scene& scene, const EffectSet& effects, PoseSystem& sys, int k,
-                          const Eigen::VectorXd& u, const Design& d, const std::vector<int>& displaced) {
+double displacedReactions(const Scene& scene, const EffectSet& effects, const PoseSystem& sys, int k,
+                          const PoseState& state, const Design& d, const std::vector<int>& displaced) {
   Scene freed = scene;
   std::vector<FixedVertex>& fixed = freed.poses[k].fixed;
   fixed.erase(std::remove_if(fixed.begin(), fixed.end(),
@@ -74,13 +71,11 @@ double displacedReactions(const Scene& scene, const EffectSet& effects, PoseSyst
                              }),
               fixed.end());
   const RodNetwork network(freed);
-  PoseSystem copy(freed, network, effects, k);
-  copy.setLoadFactor(1.0);
-  copy.resetCharts(d);
-  const Eigen::VectorXd v = copy.dofsFrom(sys.positions(u, d), sys.materialTwists(u, d));
+  const PoseSystem copy(freed, network, effects, k);
+  const PoseState freedState{copy.dofsFrom(sys.positions(state, d), sys.materialTwists(state, d)),
+                             copy.restCharts(d), 1.0};
   Eigen::VectorXd g;
-  double e = 0.0;
-  copy.evaluate(v, d, e, g, false);
+  copy.evaluate(freedState, d, &g, nullptr);
   double sum = 0.0;
   for (int vertex : displaced) {
     const int dof = copy.vertexDof()[vertex];
@@ -91,14 +86,13 @@ double displacedReactions(const Scene& scene, const EffectSet& effects, PoseSyst
 
 }  // namespace
 
-std::vector<double> sandLoadScales(SceneModel& model, const Design& d, const std::vector<PoseState>& states) {
+std::vector<double> sandLoadScales(const SceneModel& model, const Design& d, const std::vector<PoseState>& states) {
   const Scene& scene = model.scene();
   const int K = model.numPoses();
   std::vector<double> load(K, 0.0);
   std::vector<char> loaded(K, 0);
   for (int k = 0; k < K; ++k) {
-    PoseSystem& sys = model.pose(k);
-    sys.setLoadFactor(1.0);
+    const PoseSystem& sys = model.pose(k);
     std::vector<int> displaced;
     for (const FixedVertex& f : scene.poses[k].fixed)
       if (f.position && (*f.position - d.restPositions[f.vertex]).norm() > 0.0) displaced.push_back(f.vertex);
@@ -107,14 +101,12 @@ std::vector<double> sandLoadScales(SceneModel& model, const Design& d, const std
       L = loadScale(sys, d);
     } else {
       try {
-        sys.setState(states[k]);
-        const double applied = appliedLoadNorm(sys, states[k].u, d);
-        const double reactions = displacedReactions(scene, model.effects(), sys, k, states[k].u, d, displaced);
+        const double applied = appliedLoadNorm(sys, states[k], d);
+        const double reactions = displacedReactions(scene, model.effects(), sys, k, states[k], d, displaced);
         L = std::hypot(applied, reactions);
       } catch (...) {
         // The copy of the pose could not be built or evaluated: the rest
         // state's residual, an overestimate but a force.
-        sys.setTermFilter(PoseSystem::Terms::All);
         L = loadScale(sys, d);
       }
     }
@@ -142,7 +134,7 @@ std::vector<double> sandLoadScales(SceneModel& model, const Design& d, const std
   return load;
 }
 
-SandNlp::SandNlp(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
+SandNlp::SandNlp(const SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
                  const DesignPhase& phase, const ControlValues& base, const std::vector<PoseState>& states,
                  SandScaling scaling, int threads)
     : model_(model),
@@ -172,15 +164,13 @@ SandNlp::SandNlp(SceneModel& model, const DesignSpace& space, const TargetObject
   JyT_ = compressed(Jy_.transpose());
 
   x0_.resize(n_);
-  charts_.resize(K_);
+  state_.resize(K_);
   rowScale_.resize(K_);
-  u_.resize(K_);
   joint_.resize(K_);
   dir_.resize(K_);
   for (int k = 0; k < K_; ++k) {
-    PoseSystem& sys = model.pose(k);
-    sys.setState(states[k]);
-    charts_[k] = states[k].charts;
+    const PoseSystem& sys = model.pose(k);
+    state_[k] = PoseState{states[k].u, states[k].charts, 1.0};
     x0_.segment(offset_[k], sys.numDofs()) = states[k].u;
     const double L = scale_.load[k];
     if (!(L > 0) || !std::isfinite(L)) throw std::invalid_argument("SandNlp: load scales must be positive");
@@ -256,7 +246,7 @@ SandNlp::SandNlp(SceneModel& model, const DesignSpace& space, const TargetObject
       for (Sparse::InnerIterator it(H, c); it; ++it) trip.emplace_back(it.row(), it.col(), 0.0);
     for (int v = 0; v < space.numVertices(); ++v) {
       if (!sys.isHeld(v)) continue;
-      const double coef = sys.heldDesignCoefficient(v);
+      const double coef = sys.heldDesignCoefficient(v, 1.0);
       if (coef == 0.0) continue;
       const Eigen::Matrix3d block = objective.weight(k) * coef * coef * proj;
       for (int a = 0; a < 3; ++a)
@@ -313,12 +303,8 @@ ControlValues SandNlp::controls(const double* x) const {
 Design SandNlp::design(const double* x) const { return space_.toDesign(controls(x)); }
 
 std::vector<PoseState> SandNlp::states(const double* x) const {
-  std::vector<PoseState> s(K_);
-  for (int k = 0; k < K_; ++k) {
-    s[k].u = Eigen::Map<const Eigen::VectorXd>(x + offset_[k], offset_[k + 1] - offset_[k]);
-    s[k].charts = charts_[k];
-    s[k].loadFactor = 1.0;
-  }
+  std::vector<PoseState> s = state_;
+  for (int k = 0; k < K_; ++k) s[k].u = Eigen::Map<const Eigen::VectorXd>(x + offset_[k], offset_[k + 1] - offset_[k]);
   return s;
 }
 
@@ -329,7 +315,7 @@ bool SandNlp::prepare(const double* x) {
   x_ = Eigen::Map<const Eigen::VectorXd>(x, n_);
   if (!x_.allFinite()) return false;
   design_ = design(x);
-  for (int k = 0; k < K_; ++k) u_[k] = x_.segment(offset_[k], offset_[k + 1] - offset_[k]);
+  for (int k = 0; k < K_; ++k) state_[k].u = x_.segment(offset_[k], offset_[k + 1] - offset_[k]);
   prepared_ = true;
   return true;
 }
@@ -353,10 +339,7 @@ bool SandNlp::ensureJoint() {
   std::vector<char> ok(K_, 1);
   forEachPose(K_, threads_, [&](int k) {
     try {
-      PoseSystem& sys = model_.pose(k);
-      sys.setCharts(charts_[k]);
-      sys.setLoadFactor(1.0);
-      sys.evaluateJoint(u_[k], design_, joint_[k]);
+      model_.pose(k).evaluateJoint(state_[k], design_, joint_[k]);
       ok[k] = joint_[k].gu.allFinite();
     } catch (...) {
       ok[k] = 0;
@@ -371,18 +354,14 @@ void SandNlp::poseGradient(int k, Eigen::VectorXd& grad) {
     grad = joint_[k].gu;
     return;
   }
-  PoseSystem& sys = model_.pose(k);
-  sys.setCharts(charts_[k]);
-  sys.setLoadFactor(1.0);
-  double e;
-  sys.evaluate(u_[k], design_, e, grad, false);
+  model_.pose(k).evaluate(state_[k], design_, &grad, nullptr);
 }
 
 bool SandNlp::objective(const double* x, double& f) {
   return guarded([&] {
     if (!prepare(x)) return false;
     double sum = 0.0;
-    for (int k = 0; k < K_; ++k) sum += objective_.pose(model_.pose(k), u_[k], design_, nullptr, nullptr);
+    for (int k = 0; k < K_; ++k) sum += objective_.pose(model_.pose(k), state_[k], design_, nullptr, nullptr);
     f = sum / scale_.objective;
     return std::isfinite(f);
   });
@@ -395,8 +374,8 @@ bool SandNlp::gradient(const double* x, double* g) {
     out.setZero();
     Eigen::VectorXd dfdp = Eigen::VectorXd::Zero(5 * space_.numVertices());
     for (int k = 0; k < K_; ++k) {
-      Eigen::VectorXd dfdu = Eigen::VectorXd::Zero(u_[k].size());
-      objective_.pose(model_.pose(k), u_[k], design_, &dfdu, &dfdp);
+      Eigen::VectorXd dfdu = Eigen::VectorXd::Zero(state_[k].u.size());
+      objective_.pose(model_.pose(k), state_[k], design_, &dfdu, &dfdp);
       out.segment(offset_[k], dfdu.size()) = dfdu;
     }
     if (nz_ > 0) out.tail(nz_) = JyT_ * dfdp;
@@ -449,12 +428,10 @@ bool SandNlp::hessian(const double* x, double sigma, const double* lambda, doubl
     std::vector<char> ok(K_, 1);
     forEachPose(K_, threads_, [&](int k) {
       try {
-        PoseSystem& sys = model_.pose(k);
-        sys.setCharts(charts_[k]);
-        sys.setLoadFactor(1.0);
+        const PoseSystem& sys = model_.pose(k);
         const int n = offset_[k + 1] - offset_[k];
         const Eigen::VectorXd v = rowScale_[k].cwiseProduct(Eigen::Map<const Eigen::VectorXd>(lambda + offset_[k], n));
-        sys.evaluateJoint(u_[k], design_, dir_[k], &v);
+        sys.evaluateJoint(state_[k], design_, dir_[k], &v);
       } catch (...) {
         ok[k] = 0;
       }
@@ -491,7 +468,7 @@ double SandNlp::rms(const double* x) {
   double ss = 0.0;
   for (int k = 0; k < K_; ++k) {
     double s = 0.0;
-    objective_.pose(model_.pose(k), u_[k], design_, nullptr, nullptr, &s);
+    objective_.pose(model_.pose(k), state_[k], design_, nullptr, nullptr, &s);
     ss += s;
   }
   return objective_.rms(ss);

@@ -71,14 +71,14 @@ struct SandScaling {
 //    about 1e15 times its force.
 // States must carry the charts they were solved in; the model's term filter
 // is left at All.
-std::vector<double> sandLoadScales(SceneModel& model, const Design& design, const std::vector<PoseState>& states);
+std::vector<double> sandLoadScales(const SceneModel& model, const Design& design, const std::vector<PoseState>& states);
 
 class SandNlp {
  public:
   // states: one per pose, at load factor 1; their charts are installed and
   // stay fixed while this problem lives (a change of charts is a change of
   // variables). `base` holds the design values the phase does not free.
-  SandNlp(SceneModel& model, const DesignSpace& space, const TargetObjective& objective, const DesignPhase& phase,
+  SandNlp(const SceneModel& model, const DesignSpace& space, const TargetObjective& objective, const DesignPhase& phase,
           const ControlValues& base, const std::vector<PoseState>& states, SandScaling scaling, int threads);
 
   int numVariables() const { return n_; }
@@ -125,7 +125,7 @@ class SandNlp {
   template <class Fn>
   bool guarded(Fn&& fn);            // timing + catch
 
-  SceneModel& model_;
+  const SceneModel& model_;
   const DesignSpace& space_;
   const TargetObjective& objective_;
   DesignPhase phase_;
@@ -138,7 +138,6 @@ class SandNlp {
   Eigen::SparseMatrix<double> Jy_;                // dp/dy (5V x nz)
   Eigen::SparseMatrix<double> JyT_;
   Eigen::VectorXd x0_;
-  std::vector<Charts> charts_;
 
   // Jacobian: per pose the Huu values (slot = jacHuuBase_[k] + entry) and
   // the product Hup Jy (slot = jacHupBase_[k] + entry of the product).
@@ -164,7 +163,9 @@ class SandNlp {
   Eigen::VectorXd x_;
   bool prepared_ = false, jointReady_ = false;
   Design design_;
-  std::vector<Eigen::VectorXd> u_;
+  // Per pose: the unknowns of x_, the charts the NLP was built with, load
+  // factor 1.
+  std::vector<PoseState> state_;
   std::vector<JointDerivatives> joint_, dir_;
   double evalSeconds_ = 0.0;
   int evaluations_ = 0;

@@ -296,7 +296,7 @@ namespace {
 // design values (nlp/sand_nlp.hh).
 class SandPhaseSolver : public PhaseSolver {
  public:
-  SandPhaseSolver(SceneModel& model, const DesignSpace& space, const SandOptions& so)
+  SandPhaseSolver(const SceneModel& model, const DesignSpace& space, const SandOptions& so)
       : model_(model), space_(space), so_(so), opt_(so.optimizer), objective_(model.scene(), model.effects()) {
     warmupOptions_ = opt_;
     warmupOptions_.maxLevelIterations = std::max(1, so.warmupIterations);
@@ -320,7 +320,7 @@ class SandPhaseSolver : public PhaseSolver {
   }
 
  private:
-  SceneModel& model_;
+  const SceneModel& model_;
   const DesignSpace& space_;
   const SandOptions& so_;
   const DesignOptimizerOptions& opt_;
@@ -465,11 +465,10 @@ PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext&
   // Charts at the current equilibria: edges keep far from their chart's
   // singular direction while Ipopt moves them.
   std::vector<PoseState> states = task.states;
-  for (int k = 0; k < K; ++k) {
-    PoseSystem& sys = model_.pose(k);
-    sys.setState(states[k]);
-    sys.reanchorCharts(states[k].u, space_.toDesign(task.controls), 0.5);
-    states[k].charts = sys.charts();
+  {
+    const Design d = space_.toDesign(task.controls);
+    for (int k = 0; k < K; ++k)
+      if (std::optional<PoseState> moved = model_.pose(k).reanchored(states[k], d, 0.5)) states[k] = std::move(*moved);
   }
   scaling_.variable = designVariableScale(space_, phase, scene);
   {
@@ -663,7 +662,7 @@ std::string SandOptions::isValid() const {
   return optimizer.isValid();
 }
 
-DesignOptimizerResult optimizeSand(SceneModel& model, const DesignSpace& space, const SandOptions& so,
+DesignOptimizerResult optimizeSand(const SceneModel& model, const DesignSpace& space, const SandOptions& so,
                                    const DesignProgress& progress) {
   SandPhaseSolver solver(model, space, so);
   return runDesign(model, space, so.optimizer, solver, progress);

@@ -391,9 +391,9 @@ py::dict archiveDict(const Archive& a) {
 
 // ---- one pose's energy and derivatives at explicit states
 
-// Every call installs the state it is given: charts at the scene design's
-// rest frames and the load factor passed, so that nothing depends on earlier
-// calls.
+// Every call evaluates the (immutable) pose model at the state it is given:
+// charts at the scene design's rest frames and the load factor passed, so that
+// nothing depends on earlier calls.
 class PyPoseModel {
  public:
   PyPoseModel(const PyScene& s, int pose) : scene_(std::make_unique<Scene>(s.scene)) {
@@ -418,54 +418,46 @@ class PyPoseModel {
   // The rest configuration of design p in this model's coordinates: twists
   // are measured from the scene design's rest frames, so a design with
   // another rest shape has non-zero twist unknowns at its rest state.
-  Eigen::VectorXd restState(const std::optional<Eigen::VectorXd>& p) {
+  Eigen::VectorXd restState(const std::optional<Eigen::VectorXd>& p) const {
     const Design d = design(p);
-    installState(0.0);
     Eigen::VectorXd u = sys().restDofs(d);
     if (sys().hasTwist() && p) {
-      const Eigen::VectorXd offset = sys().materialTwists(u, d);
+      const Eigen::VectorXd offset = sys().materialTwists(at(u, 0.0), d);
       for (int e = 0; e < offset.size(); ++e) u[sys().thetaDof(e)] -= offset[e];
     }
     return u;
   }
 
-  double energy(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) {
-    const Design d = prepare(u, p, loadFactor);
-    return sys().energy(u, d);
+  double energy(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) const {
+    return sys().energy(checked(u, loadFactor), design(p));
   }
-  Eigen::VectorXd gradient(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) {
-    const Design d = prepare(u, p, loadFactor);
-    double e = 0;
+  Eigen::VectorXd gradient(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p,
+                           double loadFactor) const {
     Eigen::VectorXd g;
-    sys().evaluate(u, d, e, g, false);
+    sys().evaluate(checked(u, loadFactor), design(p), &g, nullptr);
     return g;
   }
   Eigen::SparseMatrix<double> hessian(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p,
-                                      double loadFactor) {
-    const Design d = prepare(u, p, loadFactor);
-    return sys().joint(u, d).Huu;
+                                      double loadFactor) const {
+    return sys().joint(checked(u, loadFactor), design(p)).Huu;
   }
   Eigen::SparseMatrix<double> designJacobian(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p,
-                                             double loadFactor) {
-    const Design d = prepare(u, p, loadFactor);
-    return sys().joint(u, d).Hup;
+                                             double loadFactor) const {
+    return sys().joint(checked(u, loadFactor), design(p)).Hup;
   }
   Eigen::VectorXd energyDesignGradient(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p,
-                                       double loadFactor) {
-    const Design d = prepare(u, p, loadFactor);
-    return sys().joint(u, d).gp;
+                                       double loadFactor) const {
+    return sys().joint(checked(u, loadFactor), design(p)).gp;
   }
-  RowMat positions(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) {
-    const Design d = prepare(u, p, loadFactor);
-    const std::vector<Vec3> x = sys().positions(u, d);
+  RowMat positions(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) const {
+    const std::vector<Vec3> x = sys().positions(checked(u, loadFactor), design(p));
     RowMat m(x.size(), 3);
     for (std::size_t i = 0; i < x.size(); ++i) m.row(i) = x[i].transpose();
     return m;
   }
   Eigen::VectorXd materialTwists(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p,
-                                 double loadFactor) {
-    const Design d = prepare(u, p, loadFactor);
-    return sys().materialTwists(u, d);
+                                 double loadFactor) const {
+    return sys().materialTwists(checked(u, loadFactor), design(p));
   }
 
   py::dict dofInfo() const {
@@ -506,7 +498,7 @@ class PyPoseModel {
   }
 
  private:
-  PoseSystem& sys() const { return model_->pose(pose_); }
+  const PoseSystem& sys() const { return model_->pose(pose_); }
   Design design(const std::optional<Eigen::VectorXd>& p) const {
     if (!p) return design_;
     if (p->size() != design_.numParameters())
@@ -516,21 +508,16 @@ class PyPoseModel {
     d.fromVector(*p);
     return d;
   }
-  // Reference-frame charts at the rest frames of the scene's design, whatever
-  // p is: the twist unknowns are then coordinates independent of p, and
-  // design derivatives are derivatives at fixed u.
-  void installState(double loadFactor) {
-    PoseState st = sys().restState(design_);
-    st.loadFactor = loadFactor;
-    sys().setState(st);
-    sys().setLoadFactor(loadFactor);
+  // The state of u at a load factor, its charts at the rest frames of the
+  // scene's design whatever p is: the twist unknowns are then coordinates
+  // independent of p, and design derivatives are derivatives at fixed u.
+  PoseState at(const Eigen::VectorXd& u, double loadFactor) const {
+    return sys().withRestCharts(u, design_, loadFactor);
   }
-  Design prepare(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) {
+  PoseState checked(const Eigen::VectorXd& u, double loadFactor) const {
     if (u.size() != numDofs())
       throw py::value_error("u has " + std::to_string(u.size()) + " entries, expected " + std::to_string(numDofs()));
-    Design d = design(p);
-    installState(loadFactor);
-    return d;
+    return at(u, loadFactor);
   }
 
   std::unique_ptr<Scene> scene_;  // SceneModel keeps a reference

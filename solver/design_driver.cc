@@ -11,7 +11,7 @@
 
 namespace rodmesh {
 
-bool solvePosesFrom(SceneModel& model, const Design& d, std::vector<PoseState>& states, const NewtonOptions& newton,
+bool solvePosesFrom(const SceneModel& model, const Design& d, std::vector<PoseState>& states, const NewtonOptions& newton,
                     int threads) {
   const int K = model.numPoses();
   std::vector<char> ok(K, 0);
@@ -26,14 +26,13 @@ bool solvePosesFrom(SceneModel& model, const Design& d, std::vector<PoseState>& 
   return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
 }
 
-double objectiveOfStates(SceneModel& model, const TargetObjective& objective, const Design& d,
+double objectiveOfStates(const SceneModel& model, const TargetObjective& objective, const Design& d,
                          const std::vector<PoseState>& states, double& f) {
   double ss = 0.0;
   f = 0.0;
   for (int k = 0; k < model.numPoses(); ++k) {
     double s = 0.0;
-    model.pose(k).setState(states[k]);
-    f += objective.pose(model.pose(k), states[k].u, d, nullptr, nullptr, &s);
+    f += objective.pose(model.pose(k), states[k], d, nullptr, nullptr, &s);
     ss += s;
   }
   return ss;
@@ -53,7 +52,7 @@ std::string millimetres(double metres) {
 // The run's state; PhaseContext forwards to it.
 class DesignDriver {
  public:
-  DesignDriver(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
+  DesignDriver(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
                const DesignProgress& progress)
       : model_(model),
         space_(space),
@@ -120,7 +119,7 @@ class DesignDriver {
   void adopt(const ControlValues& controls, const Design& d, double f, double rms, std::vector<PoseState> polished,
              std::vector<PoseState> own);
 
-  SceneModel& model_;
+  const SceneModel& model_;
   const DesignSpace& space_;
   const Scene& scene_;
   const DesignOptimizerOptions& opt_;
@@ -209,8 +208,8 @@ bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>&
   int worst = 0;
   for (int k = 0; k < model_.numPoses(); ++k) {
     const PoseSystem& sys = model_.pose(k);
-    const std::vector<Vec3> own = sys.positions(states_[k].u, res_.design);
-    const std::vector<Vec3> along = sys.positions(path[k].u, res_.design);
+    const std::vector<Vec3> own = sys.positions(states_[k], res_.design);
+    const std::vector<Vec3> along = sys.positions(path[k], res_.design);
     for (std::size_t v = 0; v < own.size() && v < along.size(); ++v) {
       const double g = (own[v] - along[v]).norm();
       if (g > gap) {
@@ -274,7 +273,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   }
   res_.initialObjective = res_.objective = f0;
   res_.initialRms = res_.rms = rms0;
-  for (int k = 0; k < K; ++k) res_.initialPositions.push_back(model_.pose(k).positions(states_[k].u, d0));
+  for (int k = 0; k < K; ++k) res_.initialPositions.push_back(model_.pose(k).positions(states_[k], d0));
   optimizer_ = states_;
   res_.states = states_;
   {
@@ -450,7 +449,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   return finish(stop, message);
 }
 
-DesignOptimizerResult runDesign(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& options,
+DesignOptimizerResult runDesign(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& options,
                                 PhaseSolver& solver, const DesignProgress& progress) {
   DesignDriver driver(model, space, options, progress);
   return driver.run(solver);

@@ -130,22 +130,22 @@ class PhaseSolver {
 // The reduced method's phase solver (BFGS on the reduced objective,
 // solver/design_optimizer.cc); `options` must outlive it. SAND also uses it
 // to start its first phase (SandOptions::warmupIterations).
-std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(SceneModel& model, const DesignSpace& space,
+std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(const SceneModel& model, const DesignSpace& space,
                                                     const DesignOptimizerOptions& options);
 
 // Runs the schedule of `options` with `solver` and returns the run's result
 // (solver/design_optimizer.hh).
-DesignOptimizerResult runDesign(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& options,
+DesignOptimizerResult runDesign(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& options,
                                 PhaseSolver& solver, const DesignProgress& progress = {});
 
 // Every pose solved by Newton from `states` under `d` (warm starts keep their
 // charts; a failed warm start is restarted from rest along the loading
 // path). False if a pose fails.
-bool solvePosesFrom(SceneModel& model, const Design& d, std::vector<PoseState>& states, const NewtonOptions& newton,
+bool solvePosesFrom(const SceneModel& model, const Design& d, std::vector<PoseState>& states, const NewtonOptions& newton,
                     int threads);
 // f (contract §4) of the states under `d`, and the summed squared distance
 // to the targets (returned).
-double objectiveOfStates(SceneModel& model, const TargetObjective& objective, const Design& d,
+double objectiveOfStates(const SceneModel& model, const TargetObjective& objective, const Design& d,
                          const std::vector<PoseState>& states, double& f);
 
 }  // namespace rodmesh

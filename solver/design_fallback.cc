@@ -71,7 +71,7 @@ void DesignFallbacks::add(const ControlValues& controls, double objective, doubl
   designs_.erase(designs_.begin() + static_cast<std::ptrdiff_t>(drop));
 }
 
-ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space, const DesignOptimizerResult& result,
+ArchivedDesign chooseArchivedDesign(const SceneModel& model, const DesignSpace& space, const DesignOptimizerResult& result,
                                     const NewtonOptions& newton) {
   const Scene& scene = model.scene();
   ArchivedDesign out;
@@ -92,9 +92,9 @@ ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space,
     out.gapTolerance = designedEquilibriumTolerance(result.rms, scene.vertices.empty() ? 0.0 : hi - lo);
     std::string worst;
     for (int p = 0; p < model.numPoses(); ++p) {
-      PoseSystem& sys = model.pose(p);
+      const PoseSystem& sys = model.pose(p);
       if (result.states[p].u.size() != sys.numDofs()) continue;
-      const std::vector<Vec3> own = sys.positions(result.states[p].u, out.design);
+      const std::vector<Vec3> own = sys.positions(result.states[p], out.design);
       const std::vector<Vec3>& path = out.simulation.poses[p].positions;
       for (std::size_t v = 0; v < own.size() && v < path.size(); ++v) {
         const double g = (own[v] - path[v]).norm();

@@ -102,7 +102,7 @@ struct DesignOptimizerResult;
 // equilibria). When none does, the final design with its unconverged poses.
 // `newton`: the options of `rodmesh simulate`'s Newton solve (the defaults
 // unless the caller changes both).
-ArchivedDesign chooseArchivedDesign(SceneModel& model, const DesignSpace& space, const DesignOptimizerResult& result,
+ArchivedDesign chooseArchivedDesign(const SceneModel& model, const DesignSpace& space, const DesignOptimizerResult& result,
                                     const NewtonOptions& newton);
 
 }  // namespace rodmesh

@@ -133,7 +133,7 @@ void DesignMonitor::run() {
   idle_.notify_all();
 }
 
-void DesignMonitor::check(const Offer& offer, SceneModel& model) {
+void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
   if (!offer.controls.radii.allFinite() || !offer.controls.displacement.allFinite()) return;
   const Design d = space_.toDesign(offer.controls);
   const int K = model.numPoses();
@@ -151,7 +151,7 @@ void DesignMonitor::check(const Offer& offer, SceneModel& model) {
     const NewtonReport r = solveEquilibrium(model.pose(k), d, states[k], newton_);
     if (cancel_.load() || !r.converged || states[k].loadFactor != 1.0) return;
     PoseResult pr;
-    pr.positions = model.pose(k).positions(states[k].u, d);
+    pr.positions = model.pose(k).positions(states[k], d);
     warmSim.poses.push_back(std::move(pr));
   }
   warm_ = states;  // converged: the next check starts here

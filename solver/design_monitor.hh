@@ -86,7 +86,7 @@ class DesignMonitor {
     std::string label;
   };
   void run();
-  void check(const Offer& offer, SceneModel& model);
+  void check(const Offer& offer, const SceneModel& model);
 
   const Scene& scene_;
   const DesignSpace& space_;

@@ -29,12 +29,12 @@ TargetObjective::TargetObjective(const Scene& scene, const EffectSet& effects) :
   for (const Pose& p : scene.poses) weights_.push_back(p.weight);
 }
 
-double TargetObjective::pose(const PoseSystem& sys, const Eigen::VectorXd& u, const Design& d, Eigen::VectorXd* dfdu,
+double TargetObjective::pose(const PoseSystem& sys, const PoseState& state, const Design& d, Eigen::VectorXd* dfdu,
                              Eigen::VectorXd* dfdp, double* sumSquared) const {
   const int k = sys.poseIndex();
   const std::vector<Vec3>& target = scene_.poses[k].target;
   const double w = weights_[k];
-  const std::vector<Vec3> x = sys.positions(u, d);
+  const std::vector<Vec3> x = sys.positions(state, d);
   const auto& B = fx_.planeBasis;
   double f = 0.0, ss = 0.0;
   for (std::size_t v = 0; v < x.size(); ++v) {
@@ -49,7 +49,7 @@ double TargetObjective::pose(const PoseSystem& sys, const Eigen::VectorXd& u, co
     } else if (dfdp) {
       // A held vertex follows its rest position (projected onto the plane of
       // a planar scene), with the system's coefficient.
-      Vec3 gr = w * sys.heldDesignCoefficient(static_cast<int>(v)) * r;
+      Vec3 gr = w * sys.heldDesignCoefficient(static_cast<int>(v), state.loadFactor) * r;
       if (sys.dofsPerVertex() == 2) gr = B * (B.transpose() * gr);
       dfdp->segment<3>(Design::restIndex(static_cast<int>(v), 0)) += gr;
     }
@@ -100,7 +100,7 @@ std::string DesignOptimizerOptions::isValid() const {
 
 // ------------------------------------------------------------------------
 
-ReducedObjective::ReducedObjective(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
+ReducedObjective::ReducedObjective(const SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
                                    const DesignPhase& phase, const ControlValues& base, const NewtonOptions& newton,
                                    int threads, std::vector<PoseState> warm)
     : model_(model),
@@ -121,18 +121,18 @@ bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& state
   std::vector<char> ok(n, 0), restarted(n, 0);
   forEachPose(n, threads_, [&](int p) {
     try {
-      PoseSystem& sys = model_.pose(p);
+      const PoseSystem& sys = model_.pose(p);
       if (static_cast<int>(prediction.size()) == n && prediction[p].size() == states[p].u.size() &&
           states[p].loadFactor == 1.0) {
         // Start from the prediction when it is closer to equilibrium (smaller
         // force residual under the new design) than the warm start.
-        sys.setState(states[p]);
-        double e;
         Eigen::VectorXd gw, gp;
-        sys.evaluate(states[p].u, d, e, gw, false);
-        const Eigen::VectorXd up = states[p].u + prediction[p];
-        sys.evaluate(up, d, e, gp, false);
-        if (gp.allFinite() && sys.forceResidual(gp).norm() < sys.forceResidual(gw).norm()) states[p].u = up;
+        sys.evaluate(states[p], d, &gw, nullptr);
+        PoseState predicted = states[p];
+        predicted.u += prediction[p];
+        sys.evaluate(predicted, d, &gp, nullptr);
+        if (gp.allFinite() && sys.forceResidual(gp).norm() < sys.forceResidual(gw).norm())
+          states[p] = std::move(predicted);
       }
       const NewtonReport r = solveEquilibrium(sys, d, states[p], newton_);
       ok[p] = r.converged && states[p].loadFactor == 1.0;
@@ -164,14 +164,11 @@ bool ReducedObjective::probeObjective(const Eigen::VectorXd& z, const std::vecto
   std::vector<char> ok(n, 0);
   forEachPose(n, threads_, [&](int p) {
     try {
-      PoseSystem& sys = model_.pose(p);
+      const PoseSystem& sys = model_.pose(p);
       PoseState st = start[p];
       const NewtonReport r = solveEquilibrium(sys, d, st, newton_);
       ok[p] = r.converged && st.loadFactor == 1.0;
-      if (ok[p]) {
-        sys.setState(st);
-        fk[p] = objective_.pose(sys, st.u, d, nullptr, nullptr);
-      }
+      if (ok[p]) fk[p] = objective_.pose(sys, st, d, nullptr, nullptr);
     } catch (...) {
       ok[p] = 0;
     }
@@ -208,22 +205,21 @@ bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::
   const bool adjoint = g && derivatives_ != DesignDerivatives::FiniteDifferenceResolve;
   forEachPose(n, threads_, [&](int p) {
     try {
-      PoseSystem& sys = model_.pose(p);
-      sys.setState(states[p]);
-      const Eigen::VectorXd& u = states[p].u;
+      const PoseSystem& sys = model_.pose(p);
+      const PoseState& state = states[p];
       if (!adjoint) {
-        fk[p] = objective_.pose(sys, u, d, nullptr, nullptr, &ssk[p]);
+        fk[p] = objective_.pose(sys, state, d, nullptr, nullptr, &ssk[p]);
         return;
       }
       Eigen::VectorXd dfdu = Eigen::VectorXd::Zero(sys.numDofs());
       dfdp[p] = Eigen::VectorXd::Zero(d.numParameters());
-      fk[p] = objective_.pose(sys, u, d, &dfdu, &dfdp[p], &ssk[p]);
+      fk[p] = objective_.pose(sys, state, d, &dfdu, &dfdp[p], &ssk[p]);
       if (sys.numDofs() == 0) return;
       // Adjoint: H lambda = df/du with the equilibrium's Hessian.
-      double e;
       Eigen::VectorXd grad;
-      sys.evaluate(u, d, e, grad, true);
-      Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(sys.hessian());
+      Eigen::SparseMatrix<double> H;
+      sys.evaluate(state, d, &grad, &H);
+      Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(H);
       if (ldlt.info() != Eigen::Success) {
         ok[p] = 0;
         return;
@@ -234,7 +230,7 @@ bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::
         return;
       }
       if (derivatives_ == DesignDerivatives::Exact) {
-        dfdp[p] -= sys.designForceProduct(u, d, lambda);
+        dfdp[p] -= sys.designForceProduct(state, d, lambda);
         return;
       }
       // The paper's recipe: dF/dz_i by central differences of the force at
@@ -245,9 +241,9 @@ bool ReducedObjective::evaluateImpl(const Eigen::VectorXd& z, double& f, Eigen::
       for (int i = 0; i < z.size(); ++i) {
         const double h = fdForceStep * fdScale_[i];
         zp[i] = z[i] + h;
-        sys.evaluate(u, space_.toDesign(space_.unpack(phase_, zp, base_)), e, Fp, false);
+        sys.evaluate(state, space_.toDesign(space_.unpack(phase_, zp, base_)), &Fp, nullptr);
         zp[i] = z[i] - h;
-        sys.evaluate(u, space_.toDesign(space_.unpack(phase_, zp, base_)), e, Fm, false);
+        sys.evaluate(state, space_.toDesign(space_.unpack(phase_, zp, base_)), &Fm, nullptr);
         zp[i] = z[i];
         dfdz[p][i] = -lambda.dot(Fp - Fm) / (2 * h);
       }
@@ -526,7 +522,7 @@ class NestedPhase {
 // the equilibria (ReducedObjective).
 class ReducedPhaseSolver : public PhaseSolver {
  public:
-  ReducedPhaseSolver(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt)
+  ReducedPhaseSolver(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt)
       : model_(model), space_(space), opt_(opt), objective_(model.scene(), model.effects()) {}
 
   bool iteratesAreEquilibria() const override { return true; }
@@ -569,7 +565,7 @@ class ReducedPhaseSolver : public PhaseSolver {
   }
 
  private:
-  SceneModel& model_;
+  const SceneModel& model_;
   const DesignSpace& space_;
   const DesignOptimizerOptions& opt_;
   const TargetObjective objective_;
@@ -582,7 +578,7 @@ class ReducedPhaseSolver : public PhaseSolver {
 // design.
 class NewtonPhaseSolver : public PhaseSolver {
  public:
-  NewtonPhaseSolver(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt)
+  NewtonPhaseSolver(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt)
       : model_(model), space_(space), opt_(opt), objective_(model.scene(), model.effects()) {}
 
   bool iteratesAreEquilibria() const override { return true; }
@@ -658,7 +654,7 @@ class NewtonPhaseSolver : public PhaseSolver {
   }
 
  private:
-  SceneModel& model_;
+  const SceneModel& model_;
   const DesignSpace& space_;
   const DesignOptimizerOptions& opt_;
   const TargetObjective objective_;
@@ -667,18 +663,18 @@ class NewtonPhaseSolver : public PhaseSolver {
 
 }  // namespace
 
-std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(SceneModel& model, const DesignSpace& space,
+std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(const SceneModel& model, const DesignSpace& space,
                                                     const DesignOptimizerOptions& options) {
   return std::make_unique<ReducedPhaseSolver>(model, space, options);
 }
 
-DesignOptimizerResult optimizeNewton(SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
+DesignOptimizerResult optimizeNewton(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
                                      const DesignProgress& progress) {
   NewtonPhaseSolver solver(model, space, opt);
   return runDesign(model, space, opt, solver, progress);
 }
 
-DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
+DesignOptimizerResult optimizeReduced(const SceneModel& model, const DesignSpace& space,
                                       const DesignOptimizerOptions& opt, const DesignProgress& progress) {
   ReducedPhaseSolver solver(model, space, opt);
   return runDesign(model, space, opt, solver, progress);

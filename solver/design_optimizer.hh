@@ -46,7 +46,7 @@ class TargetObjective {
   // f_k, with df/du (size of u) and df/dp (Design vector, direct dependence
   // through held vertices) added when asked.
   // sumSquared (optional) receives sum_v |q_v - target_v|^2.
-  double pose(const PoseSystem& sys, const Eigen::VectorXd& u, const Design& d, Eigen::VectorXd* dfdu,
+  double pose(const PoseSystem& sys, const PoseState& state, const Design& d, Eigen::VectorXd* dfdu,
               Eigen::VectorXd* dfdp, double* sumSquared = nullptr) const;
   // Contract §3 RMS over all poses and vertices (m), from summed squared distances.
   double rms(double sumSquared) const;
@@ -254,19 +254,19 @@ bool meaningfulGain(double before, double after, double initial, int iterations)
 bool adoptConfirmed(const DesignMonitor& monitor, Outcome outcome, DesignOptimizerResult& res,
                     std::vector<PoseState>& states, DesignFallbacks& fallbacks);
 
-DesignOptimizerResult optimizeReduced(SceneModel& model, const DesignSpace& space,
+DesignOptimizerResult optimizeReduced(const SceneModel& model, const DesignSpace& space,
                                       const DesignOptimizerOptions& options, const DesignProgress& progress = {});
 // The reduced-space Newton method: the same objective, schedule and driver,
 // each phase by trust-region Newton-CG with exact Hessian-vector products
 // (docs/optimization.md, "Newton-CG"). Exact design derivatives only.
-DesignOptimizerResult optimizeNewton(SceneModel& model, const DesignSpace& space,
+DesignOptimizerResult optimizeNewton(const SceneModel& model, const DesignSpace& space,
                                      const DesignOptimizerOptions& options, const DesignProgress& progress = {});
 
 // The reduced objective of one phase as a function of its free variables z:
 // value and adjoint gradient (exposed for tests).
 class ReducedObjective {
  public:
-  ReducedObjective(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
+  ReducedObjective(const SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
                    const DesignPhase& phase, const ControlValues& base, const NewtonOptions& newton, int threads,
                    std::vector<PoseState> warm);
   // Gradients by finite differences instead of the exact design derivatives
@@ -302,7 +302,7 @@ class ReducedObjective {
   bool solvePoses(const Design& d, std::vector<PoseState>& states);
   // f at z solved from `start` (fd-resolve probes); false when a solve fails.
   bool probeObjective(const Eigen::VectorXd& z, const std::vector<PoseState>& start, double& f);
-  SceneModel& model_;
+  const SceneModel& model_;
   const DesignSpace& space_;
   const TargetObjective& objective_;
   DesignPhase phase_;

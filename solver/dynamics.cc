@@ -70,25 +70,23 @@ std::string checkDynamicRun(const DynamicsOptions& o, double duration, double fp
   return o.isValid();
 }
 
-BackwardEuler::BackwardEuler(PoseSystem& system, const Design& design, Eigen::VectorXd dofMass,
+BackwardEuler::BackwardEuler(const PoseSystem& system, const Design& design, Eigen::VectorXd dofMass,
                              const DynamicsOptions& options)
     : sys_(system), design_(design), mass_(std::move(dofMass)), opt_(options) {
-  const double saved = sys_.loadFactor();
-  sys_.setLoadFactor(1.0);
   rep_.loadScale = loadScale(sys_, design_);
-  sys_.setLoadFactor(saved);
-  u_ = sys_.restDofs(design_);
+  state_ = sys_.restState(design_);
+  state_.loadFactor = loadFactorAt(0.0);
   v_ = Eigen::VectorXd::Zero(sys_.numDofs());
   h_ = std::min(opt_.initialStep, opt_.maxStep);
 }
 
-void BackwardEuler::setState(const Eigen::VectorXd& u, const Eigen::VectorXd& v, double t) {
-  u_ = u;
+void BackwardEuler::start(const PoseState& state, const Eigen::VectorXd& v, double t) {
+  state_ = state;
+  state_.loadFactor = loadFactorAt(t);
   v_ = v;
   v_.tail(sys_.numDofs() - sys_.numVertexDofs()).setZero();
   t_ = t;
   rep_.time = t;
-  sys_.setLoadFactor(loadFactorAt(t));
 }
 
 double BackwardEuler::loadFactorAt(double t) const {
@@ -98,10 +96,10 @@ double BackwardEuler::loadFactorAt(double t) const {
 
 double BackwardEuler::kineticEnergy() const { return 0.5 * (mass_.array() * v_.array().square()).sum(); }
 
-double BackwardEuler::potentialEnergy() const { return sys_.energy(u_, design_); }
+double BackwardEuler::potentialEnergy() const { return sys_.energy(state_, design_); }
 
 void BackwardEuler::assemble(double invH2) {
-  const Eigen::SparseMatrix<double>& H = sys_.hessian();
+  const Eigen::SparseMatrix<double>& H = H_;
   const int n = sys_.numDofs();
   if (A_.rows() != n || hessToA_.size() != static_cast<std::size_t>(H.nonZeros())) {
     // Pattern of A: the Hessian's (lower triangle) plus the full diagonal.
@@ -133,13 +131,20 @@ void BackwardEuler::assemble(double invH2) {
   for (int c = 0; c < n; ++c) a[diagA_[c]] += invH2 * mass_[c];
 }
 
-BackwardEuler::Trial BackwardEuler::solveStep(double h) {
+BackwardEuler::Trial BackwardEuler::solveStep(double h, double loadFactor) {
   Trial tr;
+  const Eigen::VectorXd& u0 = state_.u;
+  // Evaluations of the step: at its end's load factor, in the state's charts.
+  PoseState at{Eigen::VectorXd(), state_.charts, loadFactor};
+  auto with = [&at](const Eigen::VectorXd& x) -> const PoseState& {
+    at.u = x;
+    return at;
+  };
   const int n = sys_.numDofs();
   const int nv = sys_.numVertexDofs();
   const double invH2 = 1.0 / (h * h);
   const double eps = std::numeric_limits<double>::epsilon();
-  Eigen::VectorXd uPred = u_;
+  Eigen::VectorXd uPred = u0;
   uPred.head(nv) += h * v_.head(nv);
   auto phi = [&](const Eigen::VectorXd& w, double E) {
     return E + 0.5 * invH2 * (mass_.array() * (w - uPred).array().square()).sum();
@@ -148,9 +153,9 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
   // Start from the prediction or from the current state, whichever is lower.
   Eigen::VectorXd w = uPred;
   {
-    const double phiPred = phi(uPred, sys_.energy(uPred, design_));
-    const double phiCur = phi(u_, sys_.energy(u_, design_));
-    if (!std::isfinite(phiPred) || (std::isfinite(phiCur) && phiCur < phiPred)) w = u_;
+    const double phiPred = phi(uPred, sys_.energy(with(uPred), design_));
+    const double phiCur = phi(u0, sys_.energy(with(u0), design_));
+    if (!std::isfinite(phiPred) || (std::isfinite(phiCur) && phiCur < phiPred)) w = u0;
   }
 
   Eigen::VectorXd gE(n), g(n), d(n), wTrial(n);
@@ -158,7 +163,7 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
   static const bool debug = std::getenv("RODMESH_DEBUG_DYNAMICS") != nullptr;
   for (int it = 0;; ++it) {
     auto ta = Clock::now();
-    sys_.evaluate(w, design_, E, gE, true);
+    E = sys_.evaluate(with(w), design_, &gE, &H_);
     rep_.assemblySeconds += since(ta);
     if (!std::isfinite(E) || !gE.allFinite()) {
       tr.failure = "energy or forces are not finite";
@@ -201,9 +206,9 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
       const Eigen::VectorXd a = roundoff::unknownScale(sys_, w);
       const Eigen::ArrayXd inertia = eps * invH2 * mass_.array() * (w.array().abs() + uPred.array().abs());
       const Eigen::VectorXd rho =
-          (roundoff::residualFloor(sys_.hessian(), a).array().square() + inertia.square()).sqrt().matrix();
+          (roundoff::residualFloor(H_, a).array().square() + inertia.square()).sqrt().matrix();
       const double energyFloor =
-          roundoff::energyFloor(sys_.hessian(), a) + (inertia.square() / (invH2 * mass_.array()).max(1e-300)).sum();
+          roundoff::energyFloor(H_, a) + (inertia.square() / (invH2 * mass_.array()).max(1e-300)).sum();
       // Component by component: the inertia of a coordinate far from the
       // origin must not hide the residual of one near it.
       if ((sys_.forceResidual(g).cwiseAbs().array() <= sys_.forceResidual(rho).array()).all() &&
@@ -230,7 +235,7 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
     for (int b = 0; b <= opt_.maxBacktracks && !accepted; ++b, alpha *= 0.5) {
       wTrial = w + alpha * d;
       ta = Clock::now();
-      const double Et = sys_.energy(wTrial, design_);
+      const double Et = sys_.energy(with(wTrial), design_);
       rep_.assemblySeconds += since(ta);
       if (!std::isfinite(Et)) continue;
       const double phiT = phi(wTrial, Et);
@@ -238,8 +243,7 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
         accepted = true;
       } else if (std::abs(phiT - phiW) <= 1e-12 * std::max(std::abs(phiW), 1e-300)) {
         Eigen::VectorXd gt;
-        double e;
-        sys_.evaluate(wTrial, design_, e, gt, false);
+        sys_.evaluate(with(wTrial), design_, &gt, nullptr);
         gt += invH2 * mass_.cwiseProduct(wTrial - uPred);
         accepted = gt.allFinite() && sys_.forceResidual(gt).norm() < res;
       }
@@ -257,7 +261,7 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h) {
   double dev = 0.0;
   for (int k = 0; k < nv; k += D) dev = std::max(dev, (w.segment(k, D) - uPred.segment(k, D)).norm());
   tr.deviation = dev / sys_.momentArm();
-  if (n > nv) tr.twistChange = (w.tail(n - nv) - u_.tail(n - nv)).lpNorm<Eigen::Infinity>();
+  if (n > nv) tr.twistChange = (w.tail(n - nv) - u0.tail(n - nv)).lpNorm<Eigen::Infinity>();
   tr.u = std::move(w);
   return tr;
 }
@@ -267,7 +271,7 @@ bool BackwardEuler::advanceTo(double t) {
   const int n = sys_.numDofs();
   const int nv = sys_.numVertexDofs();
   auto finish = [&](bool ok) {
-    sys_.setLoadFactor(loadFactorAt(t_));
+    state_.loadFactor = loadFactorAt(t_);
     rep_.time = t_;
     rep_.wallSeconds += since(t0);
     rep_.ok = rep_.ok && ok;
@@ -296,8 +300,8 @@ bool BackwardEuler::advanceTo(double t) {
     const double remaining = t - t_;
     const bool clipped = remaining <= h_ * (1.0 + 1e-9);
     const double h = clipped ? remaining : h_;
-    sys_.setLoadFactor(loadFactorAt(t_ + h));
-    Trial tr = solveStep(h);
+    const double stepLoadFactor = loadFactorAt(t_ + h);
+    Trial tr = solveStep(h, stepLoadFactor);
     rep_.newtonIterations += tr.iterations;
     rep_.lastResidual = tr.residual;
     std::string why = tr.failure;
@@ -321,14 +325,18 @@ bool BackwardEuler::advanceTo(double t) {
       twistRejected_ = tr.twistChange;
     }
     if (why.empty()) {
-      v_.head(nv) = (tr.u.head(nv) - u_.head(nv)) / h;
-      u_ = std::move(tr.u);
+      v_.head(nv) = (tr.u.head(nv) - state_.u.head(nv)) / h;
+      state_.u = std::move(tr.u);
       t_ = clipped ? t : t_ + h;
+      state_.loadFactor = stepLoadFactor;
       rep_.steps++;
       twistRejected_ = -1.0;
       rep_.minStepTaken = rep_.steps == 1 ? h : std::min(rep_.minStepTaken, h);
       rep_.maxStepTaken = std::max(rep_.maxStepTaken, h);
-      if (sys_.reanchorCharts(u_, design_)) rep_.chartUpdates++;
+      if (std::optional<PoseState> moved = sys_.reanchored(state_, design_)) {
+        state_ = std::move(*moved);
+        rep_.chartUpdates++;
+      }
       const bool easy = tr.iterations <= opt_.easyIterations && tr.deviation <= 0.5 * opt_.maxDisplacement &&
                         tr.twistChange <= 0.5 * opt_.maxTwistChange;
       if (easy && !clipped) h_ = std::min(h_ * opt_.growFactor, opt_.maxStep);
@@ -347,13 +355,11 @@ bool BackwardEuler::advanceTo(double t) {
   return finish(true);
 }
 
-DynamicsReport simulateDynamics(PoseSystem& system, const Design& design, const std::vector<double>& vertexMasses,
-                                const DynamicsOptions& options, double duration, double fps, DynamicFrames& frames,
-                                const FrameProgress& progress) {
-  system.setLoadFactor(1.0);
-  system.resetCharts(design);
+DynamicsReport simulateDynamics(const PoseSystem& system, const Design& design,
+                                const std::vector<double>& vertexMasses, const DynamicsOptions& options,
+                                double duration, double fps, DynamicFrames& frames, const FrameProgress& progress) {
   BackwardEuler be(system, design, dofMasses(system, vertexMasses), options);
-  be.setState(system.restDofs(design), Eigen::VectorXd::Zero(system.numDofs()), 0.0);
+  be.start(system.restState(design), Eigen::VectorXd::Zero(system.numDofs()), 0.0);
   frames = DynamicFrames{};
   const int last = std::max(0, static_cast<int>(std::ceil(duration * fps - 1e-9)));
   for (int k = 0; k <= last; ++k) {
@@ -363,18 +369,18 @@ DynamicsReport simulateDynamics(PoseSystem& system, const Design& design, const 
       // Keep the last state reached, with its own time.
       if (frames.time.empty() || be.time() > frames.time.back()) {
         frames.time.push_back(be.time());
-        frames.positions.push_back(system.positions(be.dofs(), design));
+        frames.positions.push_back(system.positions(be.state(), design));
       }
       break;
     }
     frames.time.push_back(t);
-    frames.positions.push_back(system.positions(be.dofs(), design));
+    frames.positions.push_back(system.positions(be.state(), design));
     if (progress) progress(k, t, be.report());
   }
   frames.finalDofs = be.dofs();
+  frames.finalState = be.state();
   DynamicsReport rep = be.report();
   if (rep.ok) rep.message = "reached t = " + formatTime(rep.time);
-  system.setLoadFactor(1.0);
   return rep;
 }
 

@@ -94,18 +94,20 @@ struct DynamicsReport {
   std::string message;  // why it stopped, when it did
 };
 
-// Backward Euler integrator for one pose. The PoseSystem's reference-frame
-// charts must be those of the state given to setState (resetCharts for a rest
-// state); the integrator re-anchors them after every accepted step.
+// Backward Euler integrator for one pose. It keeps its own state (unknowns,
+// charts, load factor at the current time) and re-anchors the charts after
+// every accepted step; the pose model is only read.
 class BackwardEuler {
  public:
   // dofMass: mass per unknown (solver/mass.hh dofMasses), zero on twists.
-  BackwardEuler(PoseSystem& system, const Design& design, Eigen::VectorXd dofMass, const DynamicsOptions& options);
+  BackwardEuler(const PoseSystem& system, const Design& design, Eigen::VectorXd dofMass,
+                const DynamicsOptions& options);
 
-  // Starts from unknowns u and velocities v (twist entries of v are ignored)
-  // at time t.
-  void setState(const Eigen::VectorXd& u, const Eigen::VectorXd& v, double t = 0.0);
-  const Eigen::VectorXd& dofs() const { return u_; }
+  // Starts from a state's unknowns and charts (its load factor is that of
+  // time t) and velocities v (twist entries of v are ignored) at time t.
+  void start(const PoseState& state, const Eigen::VectorXd& v, double t = 0.0);
+  const PoseState& state() const { return state_; }
+  const Eigen::VectorXd& dofs() const { return state_.u; }
   const Eigen::VectorXd& velocities() const { return v_; }
   double time() const { return t_; }
   double nextStep() const { return h_; }
@@ -129,15 +131,17 @@ class BackwardEuler {
     double twistChange = 0.0;
     std::string failure;  // empty when Newton converged
   };
-  Trial solveStep(double h);
+  Trial solveStep(double h, double loadFactor);
   void assemble(double invH2);
 
-  PoseSystem& sys_;
+  const PoseSystem& sys_;
   const Design& design_;
   Eigen::VectorXd mass_;
   DynamicsOptions opt_;
   DynamicsReport rep_;
-  Eigen::VectorXd u_, v_;
+  PoseState state_;
+  Eigen::VectorXd v_;
+  Eigen::SparseMatrix<double> H_;  // Hessian of E at the last Newton iterate (lower triangle)
   double t_ = 0.0, h_ = 0.0;
   double twistRejected_ =
       -1.0;  // twist change of the last step rejected for it (-1: none since the last accepted step)
@@ -154,6 +158,7 @@ struct DynamicFrames {
   std::vector<double> time;                  // s
   std::vector<std::vector<Vec3>> positions;  // one V-list per frame
   Eigen::VectorXd finalDofs;                 // unknowns at the last frame
+  PoseState finalState;                      // the state at the last frame (unknowns, charts, load factor)
 };
 
 // Called after each stored frame (frame index, its time, the report so far).
@@ -163,7 +168,7 @@ using FrameProgress = std::function<void(int frame, double time, const DynamicsR
 // seconds and stores a frame every 1/fps s starting at t = 0; the last frame
 // is at t = duration. Vertex masses from lumpedVertexMasses. The load factor is
 // left at 1 on return.
-DynamicsReport simulateDynamics(PoseSystem& system, const Design& design, const std::vector<double>& vertexMasses,
+DynamicsReport simulateDynamics(const PoseSystem& system, const Design& design, const std::vector<double>& vertexMasses,
                                 const DynamicsOptions& options, double duration, double fps, DynamicFrames& frames,
                                 const FrameProgress& progress = {});
 

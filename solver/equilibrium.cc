@@ -11,11 +11,6 @@
 
 namespace rodmesh {
 
-SceneModel::SceneModel(const Scene& scene) : scene_(scene), network_(scene), effects_(resolveEffects(scene, network_)) {
-  for (int p = 0; p < static_cast<int>(scene.poses.size()); ++p)
-    poses_.push_back(std::make_unique<PoseSystem>(scene_, network_, effects_, p));
-}
-
 double rmsError(const std::vector<Vec3>& x, const std::vector<Vec3>& target) {
   double s = 0.0;
   for (std::size_t i = 0; i < x.size(); ++i) s += (x[i] - target[i]).squaredNorm();
@@ -62,15 +57,15 @@ std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const
   return buf;
 }
 
-SimulationResult simulateAll(SceneModel& model, const Design& design, const NewtonOptions& options,
+SimulationResult simulateAll(const SceneModel& model, const Design& design, const NewtonOptions& options,
                              const PoseProgress& progress) {
   SimulationResult out;
   out.dofsPerPose = model.numPoses() > 0 ? model.pose(0).numDofs() : 0;
   for (int p = 0; p < model.numPoses(); ++p) {
-    PoseSystem& sys = model.pose(p);
+    const PoseSystem& sys = model.pose(p);
     PoseResult r;
     r.name = model.scene().poses[p].name;
-    r.dofs = sys.restDofs(design);
+    PoseState state = sys.restState(design);
     const std::string unsupported = unsupportedLoad(model.scene(), model.network(), model.effects(), p, design);
     if (!unsupported.empty()) {
       r.report.converged = false;
@@ -79,16 +74,17 @@ SimulationResult simulateAll(SceneModel& model, const Design& design, const Newt
       r.report.loadScale = r.report.residualNorm = loadScale(sys, design);
       r.report.relativeResidual = 1.0;
     } else {
-      r.report = solveEquilibrium(sys, design, r.dofs, options);
+      r.report = solveEquilibrium(sys, design, state, options);
     }
-    r.positions = sys.positions(r.dofs, design);
-    r.twist = sys.materialTwists(r.dofs, design);
+    r.dofs = state.u;
+    // Positions and material twists as reported at the full load.
+    const PoseState reported{state.u, state.charts, 1.0};
+    r.positions = sys.positions(reported, design);
+    r.twist = sys.materialTwists(reported, design);
     const auto& target = model.scene().poses[p].target;
     if (!target.empty()) r.rmsError = rmsError(r.positions, target);
     if (r.report.outcome != Outcome::NumericalFailure && r.report.outcome != Outcome::InvalidProblem) {
-      sys.setLoadFactor(r.report.loadFactor);
-      const Stability st = stability(sys, design, r.dofs);
-      sys.setLoadFactor(1.0);
+      const Stability st = stability(sys, design, PoseState{state.u, state.charts, r.report.loadFactor});
       if (st.ok) {
         r.stable = st.negative == 0;
         r.smallestEigenvalue = st.smallestEigenvalue;

@@ -4,6 +4,7 @@
 #include "model/effects.hh"
 #include "model/network.hh"
 #include "model/pose_system.hh"
+#include "model/scene_model.hh"
 #include "solver/newton.hh"
 #include "solver/stability.hh"  // outOfPlaneStable
 
@@ -39,27 +40,10 @@ struct SimulationResult {
   int dofsPerPose = 0;  // unknowns of the first pose
 };
 
-// A scene prepared for solving: network, effects and one PoseSystem per pose.
-class SceneModel {
- public:
-  explicit SceneModel(const Scene& scene);
-  const Scene& scene() const { return scene_; }
-  const RodNetwork& network() const { return network_; }
-  const EffectSet& effects() const { return effects_; }
-  PoseSystem& pose(int i) { return *poses_[i]; }
-  int numPoses() const { return static_cast<int>(poses_.size()); }
-
- private:
-  const Scene& scene_;
-  RodNetwork network_;
-  EffectSet effects_;
-  std::vector<std::unique_ptr<PoseSystem>> poses_;
-};
-
 using PoseProgress = std::function<void(int pose, const PoseResult&)>;
 
 // Solves every pose from its rest configuration under the given design.
-SimulationResult simulateAll(SceneModel& model, const Design& design, const NewtonOptions& options,
+SimulationResult simulateAll(const SceneModel& model, const Design& design, const NewtonOptions& options,
                              const PoseProgress& progress = {});
 
 // Empty if the pose's loads can be in equilibrium; otherwise why not (no

@@ -49,8 +49,8 @@ double maxVertexStep(const PoseSystem& sys, const Eigen::VectorXd& d) {
 }
 
 // Diagonal of the structure's bounding box at u (at least one mean edge).
-double structureSize(const PoseSystem& sys, const Design& design, const Eigen::VectorXd& u) {
-  const std::vector<Vec3> x = sys.positions(u, design);
+double structureSize(const PoseSystem& sys, const Design& design, const PoseState& state) {
+  const std::vector<Vec3> x = sys.positions(state, design);
   if (x.empty()) return sys.momentArm();
   Vec3 lo = x.front(), hi = x.front();
   for (const Vec3& p : x) {
@@ -67,20 +67,27 @@ std::string format(const char* fmt, double a) {
   return buf;
 }
 
-NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale,
+// Newton from state.u at state.loadFactor; the state's unknowns and charts
+// are updated in place.
+NewtonReport newtonSolveUntil(const PoseSystem& system, const Design& design, PoseState& state, double scale,
                               double tolerance, const NewtonOptions& opt, Clock::time_point deadline,
                               bool hasDeadline, Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false) {
   const auto t0 = Clock::now();
   NewtonReport rep;
   rep.loadScale = scale;
   rep.loadSteps = 1;
-  rep.loadFactor = system.loadFactor();
+  rep.loadFactor = state.loadFactor;
   const int n = system.numDofs();
   const int nv = system.numVertexDofs();
-  Eigen::VectorXd g(n), gTrial(n), d(n), uTrial(n);
+  Eigen::VectorXd& u = state.u;
+  // Trial points of the line searches share the state's charts and load factor.
+  PoseState trial = state;
+  Eigen::VectorXd& uTrial = trial.u;
+  Eigen::VectorXd g(n), gTrial(n), d(n);
+  Eigen::SparseMatrix<double> H;  // the Hessian at u (lower triangle)
   double E = 0.0;
   if (n == 0) {
-    system.evaluate(u, design, E, g, false);
+    E = system.evaluate(state, design, &g, nullptr);
     rep.converged = true;
     rep.outcome = Outcome::Converged;
     rep.energy = E;
@@ -91,13 +98,13 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
   ModifiedLdlt factor;
   int escapes = 0;
   const bool debug = std::getenv("RODMESH_DEBUG_NEWTON") != nullptr;
-  const double size = structureSize(system, design, u);
+  const double size = structureSize(system, design, state);
   // Trust radius on vertex displacements (m) for every step; grows after a
   // full step that it limited, shrinks to what the line search accepted.
   double radius = size;
 
   auto ta = Clock::now();
-  system.evaluate(u, design, E, g, true);
+  E = system.evaluate(state, design, &g, &H);
   rep.assemblySeconds += since(ta);
   if (!std::isfinite(E) || !g.allFinite()) {
     rep.outcome = Outcome::NumericalFailure;
@@ -117,7 +124,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     rep.energy = E;
 
     // Factorize the Hessian at the current point (solver/modified_ldlt.hh).
-    const Eigen::SparseMatrix<double>& H0 = system.hessian();
+    const Eigen::SparseMatrix<double>& H0 = H;
     ta = Clock::now();
     const int factorizationsBefore = factor.factorizations();
     const bool factorOk = factor.factorize(H0);
@@ -240,7 +247,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
       Eigen::VectorXd uBest;
       for (double s = 1.0; s > 1e-6; s *= 0.5) {
         uTrial = u + s * z;
-        const double Et = system.energy(uTrial, design);
+        const double Et = system.energy(trial, design);
         if (std::isfinite(Et) && Et < best) {
           best = Et;
           uBest = uTrial;
@@ -253,7 +260,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
         if (debug) std::fprintf(stderr, "it %3d  escape along negative curvature, E %.6e -> %.6e\n", it, E, best);
         u = uBest;
         ta = Clock::now();
-        system.evaluate(u, design, E, g, true);
+        E = system.evaluate(state, design, &g, &H);
         rep.assemblySeconds += since(ta);
         rep.iterations++;
         continue;
@@ -329,7 +336,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     for (int b = 0; b <= opt.maxBacktracks; ++b) {
       uTrial = u + alpha * d;
       ta = Clock::now();
-      Etrial = system.energy(uTrial, design);
+      Etrial = system.energy(trial, design);
       rep.assemblySeconds += since(ta);
       if (std::isfinite(Etrial)) {
         anyFinite = true;
@@ -337,8 +344,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
           accepted = true;
         } else if (std::abs(Etrial - E) <= 1e-12 * std::max(std::abs(E), 1e-300)) {
           // Energy differences at round-off: judge the step by the residual.
-          double e;
-          system.evaluate(uTrial, design, e, gTrial, false);
+          system.evaluate(trial, design, &gTrial, nullptr);
           accepted = gTrial.allFinite() && system.forceResidual(gTrial).norm() < res;
         }
         if (accepted) break;
@@ -348,7 +354,7 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     }
     if (accepted) {
       ta = Clock::now();
-      system.evaluate(uTrial, design, Etrial, gTrial, true);
+      Etrial = system.evaluate(trial, design, &gTrial, &H);
       rep.assemblySeconds += since(ta);
       accepted = std::isfinite(Etrial) && gTrial.allFinite();
     }
@@ -375,9 +381,11 @@ NewtonReport newtonSolveUntil(PoseSystem& system, const Design& design, Eigen::V
     g = gTrial;
     // Edges that turned far from their reference-frame chart get a new one
     // (same energy, new coordinates): the derivatives are re-evaluated.
-    if (system.reanchorCharts(u, design)) {
+    if (std::optional<PoseState> moved = system.reanchored(state, design)) {
       rep.chartUpdates++;
-      system.evaluate(u, design, E, g, true);
+      state = std::move(*moved);
+      trial.charts = state.charts;
+      E = system.evaluate(state, design, &g, &H);
     }
   }
   rep.timeSeconds = since(t0);
@@ -398,20 +406,25 @@ std::string NewtonOptions::isValid() const {
   return "";
 }
 
-double loadScale(PoseSystem& system, const Design& design) {
-  Eigen::VectorXd u = system.restDofs(design);
+namespace {
+// The force residual of the rest unknowns under the full load, twists
+// measured in the given charts.
+double loadScaleIn(const PoseSystem& system, const Design& design, const Charts& charts) {
   Eigen::VectorXd g;
-  double e;
-  system.evaluate(u, design, e, g, false);
+  system.evaluate(PoseState{system.restDofs(design), charts, 1.0}, design, &g, nullptr);
   const Eigen::VectorXd r = system.forceResidual(g);
   if (!r.allFinite()) return std::numeric_limits<double>::infinity();
   return r.stableNorm();
 }
+}  // namespace
 
-double roundoffFloor(const PoseSystem& system, const Eigen::VectorXd& u) {
+double loadScale(const PoseSystem& system, const Design& design) {
+  return loadScaleIn(system, design, system.restCharts(design));
+}
+
+double roundoffFloor(const PoseSystem& system, const Eigen::SparseMatrix<double>& hessian, const Eigen::VectorXd& u) {
   if (system.numDofs() == 0) return 0.0;
-  const double f =
-      system.forceResidual(roundoff::residualFloor(system.hessian(), roundoff::unknownScale(system, u))).norm();
+  const double f = system.forceResidual(roundoff::residualFloor(hessian, roundoff::unknownScale(system, u))).norm();
   return std::isfinite(f) ? f : 0.0;
 }
 
@@ -419,20 +432,20 @@ bool Stability::zeroMode() const {
   return ok && std::abs(smallestEigenvalue) <= kPivotRoundoff * kEps * largestDiagonal;
 }
 
-Stability stability(PoseSystem& system, const Design& design, const Eigen::VectorXd& u) {
+Stability stability(const PoseSystem& system, const Design& design, const PoseState& state) {
   Stability out;
   const int n = system.numDofs(), nv = system.numVertexDofs();
   if (n == 0) {
     out.ok = true;
     return out;
   }
-  double e;
   Eigen::VectorXd g;
-  system.evaluate(u, design, e, g, true);
+  Eigen::SparseMatrix<double> H;
+  system.evaluate(state, design, &g, &H);
   // K = S H S with S = 1 on coordinates, 1/momentArm on twists.
   Eigen::VectorXd s = Eigen::VectorXd::Ones(n);
   s.tail(n - nv).setConstant(1.0 / system.momentArm());
-  Eigen::SparseMatrix<double> K = s.asDiagonal() * system.hessian() * s.asDiagonal();
+  Eigen::SparseMatrix<double> K = s.asDiagonal() * H * s.asDiagonal();
   if (!Eigen::Map<const Eigen::VectorXd>(K.valuePtr(), K.nonZeros()).allFinite()) return out;
   for (int k = 0; k < K.outerSize(); ++k)
     for (Eigen::SparseMatrix<double>::InnerIterator it(K, k); it; ++it)
@@ -476,31 +489,41 @@ Stability stability(PoseSystem& system, const Design& design, const Eigen::Vecto
   return out;
 }
 
-NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale, double tolerance,
-                         const NewtonOptions& opt) {
-  return newtonSolveUntil(system, design, u, scale, tolerance, opt, Clock::now(), false);
+NewtonReport newtonSolve(const PoseSystem& system, const Design& design, PoseState& state, double scale,
+                         double tolerance, const NewtonOptions& opt) {
+  return newtonSolveUntil(system, design, state, scale, tolerance, opt, Clock::now(), false);
 }
 
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u, const NewtonOptions& opt) {
+NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Eigen::VectorXd& u,
+                              const NewtonOptions& opt) {
   PoseState state = system.restState(design);
   state.u = u;
-  const double saved = system.loadFactor();
   const NewtonReport r = solveEquilibrium(system, design, state, opt);
   u = state.u;
-  system.setLoadFactor(saved);
   return r;
 }
 
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state, const NewtonOptions& opt) {
+NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, PoseState& state,
+                              const NewtonOptions& opt) {
   const auto t0 = Clock::now();
   const bool hasDeadline = opt.timeLimit > 0;
   const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(
                                  std::chrono::duration<double>(hasDeadline ? std::min(opt.timeLimit, 1e9) : 0.0));
-  system.setLoadFactor(1.0);
-  system.setCharts(state.charts);
   Eigen::VectorXd& u = state.u;
   const PoseState rest = system.restState(design);
-  const double scale = loadScale(system, design);
+  const double scale = loadScaleIn(system, design, state.charts);
+  // The charts of the state being solved: they travel with its unknowns.
+  Charts charts = state.charts;
+  // Newton from uIn (updated) at load factor lf in `charts` (updated).
+  auto solveAt = [&](double lf, Eigen::VectorXd& uIn, double tol, const NewtonOptions& o,
+                     Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false) {
+    PoseState s{std::move(uIn), std::move(charts), lf};
+    NewtonReport rs = newtonSolveUntil(system, design, s, scale, tol, o, deadline, hasDeadline, firstStep,
+                                       stopAtNegative);
+    uIn = std::move(s.u);
+    charts = std::move(s.charts);
+    return rs;
+  };
   NewtonReport total;
   total.loadScale = scale;
   auto merge = [&](const NewtonReport& r) {
@@ -516,7 +539,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     total.loadSteps++;
   };
   auto finishState = [&](double lam) {
-    state.charts = system.charts();
+    state.charts = charts;
     state.loadFactor = lam;
     total.loadFactor = lam;
   };
@@ -527,7 +550,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         "the loads overflow double precision (their force residual at rest is not finite): no equilibrium "
         "can be computed; the returned state is the rest state";
     u = rest.u;
-    system.setCharts(rest.charts);
+    charts = rest.charts;
     total.residualNorm = scale;
     total.relativeResidual = 1.0;
     total.timeSeconds = since(t0);
@@ -540,10 +563,9 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     total.outcome = Outcome::Converged;
     total.message = "no load: rest configuration";
     u = rest.u;
-    system.setCharts(rest.charts);
+    charts = rest.charts;
     Eigen::VectorXd g;
-    double e;
-    system.evaluate(u, design, e, g, false);
+    const double e = system.evaluate(PoseState{u, charts, 1.0}, design, &g, nullptr);
     total.residualNorm = system.forceResidual(g).stableNorm();
     total.energy = e;
     total.timeSeconds = since(t0);
@@ -568,7 +590,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   // applied in adaptive steps.
   const bool path = opt.loadingPath;
   const bool warm = state.loadFactor >= 1.0;
-  const double size = structureSize(system, design, rest.u);
+  const double size = structureSize(system, design, rest);
   // Path steps that meet negative curvature are abandoned at once (they are
   // shortened); their correctors are limited to this many iterations.
   const int pathIterations = std::min(opt.maxIterations, 50);
@@ -593,15 +615,14 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
 
   Eigen::VectorXd uTry = u, tangent;
   const bool fullFromState = !path || warm;
-  NewtonReport r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, fullFromState ? opt : stepOpt,
-                                    deadline, hasDeadline, &tangent, path && !warm);
+  NewtonReport r = solveAt(1.0, uTry, opt.tolerance, fullFromState ? opt : stepOpt, &tangent, path && !warm);
   merge(r);
   for (int resume = 0; fullFromState && !r.converged && r.outcome == Outcome::MaxIterations && r.progressing &&
                        resume < opt.maxLoadHalvings;
        ++resume) {
-    r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
+    r = solveAt(1.0, uTry, opt.tolerance, opt);
     merge(r);
-      total.resumes++;
+    total.resumes++;
   }
   bool accepted = false;
   if (!path)
@@ -614,7 +635,9 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
   if (accepted) {
     u = uTry;
   } else if (r.outcome == Outcome::TimeLimit) {
-    reached = system.loadFactor() == 1.0 && state.loadFactor == 1.0 ? 1.0 : state.loadFactor;
+    // The initial guess is returned with its own charts.
+    reached = state.loadFactor;
+    charts = state.charts;
     r.message = "time limit reached at the full load before convergence; the returned state is the initial guess";
   } else {
     // Adaptive continuation in the load factor from the rest state (or the
@@ -622,9 +645,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     // with the state they belong to. Not for a structure with a
     // zero-stiffness mode at rest (see the header): smaller loads need the
     // same large motion along it, and the full load from rest is its answer.
-    system.setCharts(rest.charts);
-    system.setLoadFactor(0.0);
-    const Stability unloaded = stability(system, design, rest.u);
+    const Stability unloaded = stability(system, design, rest);
     const bool fromGiven = !warm && state.loadFactor > 0.0;
     Eigen::VectorXd uCur = fromGiven ? u : rest.u;
     PoseSystem::Charts chartsCur = fromGiven ? state.charts : rest.charts;
@@ -641,22 +662,21 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         // The path step stopped at negative curvature (or the warm start
         // failed): a mechanism's answer is the full load from rest, wherever
         // its rigid motion leads.
-        system.setLoadFactor(1.0);
-        system.setCharts(rest.charts);
+        charts = rest.charts;
         uTry = rest.u;
-        r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
+        r = solveAt(1.0, uTry, opt.tolerance, opt);
         merge(r);
         for (int resume = 0;
              !r.converged && r.outcome == Outcome::MaxIterations && r.progressing && resume < opt.maxLoadHalvings;
              ++resume) {
-          r = newtonSolveUntil(system, design, uTry, scale, opt.tolerance, opt, deadline, hasDeadline);
+          r = solveAt(1.0, uTry, opt.tolerance, opt);
           merge(r);
           total.resumes++;
         }
       }
       if (path && r.converged) {
         uCur = uTry;
-        chartsCur = system.charts();
+        chartsCur = charts;
         lam = 1.0;
       } else {
         failed = true;
@@ -668,12 +688,10 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         break;
       }
       const double next = std::min(1.0, lam + step);
-      system.setLoadFactor(next);
-      system.setCharts(chartsCur);
+      charts = chartsCur;
       uTry = uCur;
       tangent.resize(0);
-      NewtonReport rs = newtonSolveUntil(system, design, uTry, scale, next < 1.0 ? stepTol : opt.tolerance, stepOpt,
-                                         deadline, hasDeadline, &tangent, path);
+      NewtonReport rs = solveAt(next, uTry, next < 1.0 ? stepTol : opt.tolerance, stepOpt, &tangent, path);
       merge(rs);
       r = rs;
       const double deviation = path ? pathDeviation(rs, uCur, uTry, tangent) : (rs.converged ? 0.0 : -1.0);
@@ -681,7 +699,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         ++pathSteps;
         lam = next;
         uCur = uTry;
-        chartsCur = system.charts();
+        chartsCur = charts;
         if (deviation <= 0.25 * opt.pathDeviation) step = std::min(2 * step, 1.0);
         negativeBeyond = false;
         continue;
@@ -702,17 +720,14 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         // unrestricted solve just beyond it, from the last state of the
         // branch.
         const double beyond = std::min(1.0, lam + minStep);
-        system.setLoadFactor(beyond);
-        system.setCharts(chartsCur);
+        charts = chartsCur;
         uTry = uCur;
-        NewtonReport rj = newtonSolveUntil(system, design, uTry, scale, beyond < 1.0 ? stepTol : opt.tolerance, opt,
-                                           deadline, hasDeadline);
+        NewtonReport rj = solveAt(beyond, uTry, beyond < 1.0 ? stepTol : opt.tolerance, opt);
         merge(rj);
         for (int resume = 0;
              !rj.converged && rj.outcome == Outcome::MaxIterations && rj.progressing && resume < opt.maxLoadHalvings;
              ++resume) {
-          rj = newtonSolveUntil(system, design, uTry, scale, beyond < 1.0 ? stepTol : opt.tolerance, opt, deadline,
-                                hasDeadline);
+          rj = solveAt(beyond, uTry, beyond < 1.0 ? stepTol : opt.tolerance, opt);
           merge(rj);
           total.resumes++;
         }
@@ -722,10 +737,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
           break;
         }
         if (rj.converged) {
-          const PoseSystem::Charts chartsBeyond = system.charts();
-          system.setLoadFactor(lam);
-          system.setCharts(chartsCur);
-          const Stability there = stability(system, design, uCur);
+          const Stability there = stability(system, design, PoseState{uCur, chartsCur, lam});
           const bool critical = negativeBeyond || (there.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
                                                    there.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
           if (critical) {
@@ -738,7 +750,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
           ++pathSteps;
           lam = beyond;
           uCur = uTry;
-          chartsCur = chartsBeyond;
+          chartsCur = charts;
           step = 2 * minStep;
           negativeBeyond = false;
           continue;
@@ -748,7 +760,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
       failed = true;
     }
     u = uCur;
-    system.setCharts(chartsCur);
+    charts = chartsCur;
     reached = lam;
     if (!failed && !timedOut && lam >= 1.0) {
       r.converged = true;
@@ -783,9 +795,7 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
         r.outcome = Outcome::NumericalFailure;
         os << "failed at every load step down to " << minStep << " of the full load (" << last << "); " << returned;
       } else {
-        system.setLoadFactor(lam);
-        system.setCharts(chartsCur);
-        const Stability here = lam == 0.0 ? unloaded : stability(system, design, uCur);
+        const Stability here = lam == 0.0 ? unloaded : stability(system, design, PoseState{uCur, chartsCur, lam});
         total.smallestEigenvalue = here.smallestEigenvalue;
         const bool lost = negativeBeyond || (here.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
                                              here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
@@ -818,10 +828,8 @@ NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseStat
     }
   }
   // The final verdict is judged at the full load, whatever the last step said.
-  system.setLoadFactor(1.0);
   Eigen::VectorXd g;
-  double e;
-  system.evaluate(u, design, e, g, false);
+  const double e = system.evaluate(PoseState{u, charts, 1.0}, design, &g, nullptr);
   total.residualNorm = system.forceResidual(g).stableNorm();
   total.relativeResidual = total.residualNorm / scale;
   total.energy = e;

@@ -111,10 +111,11 @@ struct NewtonReport {
   std::string message;                  // why it stopped
 };
 
-// Minimises the pose energy from u (updated in place) at the system's current
-// load factor. `scale` is the load scale (N) used for the stopping test.
-NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::VectorXd& u, double scale, double tolerance,
-                         const NewtonOptions& options);
+// Minimises the pose energy from state.u at state.loadFactor; the state's
+// unknowns and charts (re-anchored where edges turned far) are updated in
+// place. `scale` is the load scale (N) used for the stopping test.
+NewtonReport newtonSolve(const PoseSystem& system, const Design& design, PoseState& state, double scale,
+                         double tolerance, const NewtonOptions& options);
 
 // Full static solve of one pose: the stable equilibrium the structure reaches
 // when its loads (forces, moments, weight and prescribed displacements, all
@@ -160,17 +161,21 @@ NewtonReport newtonSolve(PoseSystem& system, const Design& design, Eigen::Vector
 //
 // Non-finite loads (a load scale that overflows) or non-finite energies and
 // forces end with Outcome::NumericalFailure, never Converged.
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, PoseState& state, const NewtonOptions& options);
+NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, PoseState& state,
+                              const NewtonOptions& options);
 // The same from u with the charts at the design's rest frames (a solve from
-// scratch); u: initial guess on entry (use PoseSystem::restDofs), solution on exit.
-NewtonReport solveEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u,
+// scratch); u: initial guess on entry (use PoseSystem::restDofs), solution on
+// exit. The solution's charts are not returned: use the PoseState overload
+// where they matter (material twists, a warm start).
+NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Eigen::VectorXd& u,
                               const NewtonOptions& options);
 
 // The load scale of a pose (see above), in newtons (+inf when the loads
-// overflow double precision).
-double loadScale(PoseSystem& system, const Design& design);
+// overflow double precision): the force residual of the design's rest state
+// under the full load.
+double loadScale(const PoseSystem& system, const Design& design);
 
-// Stability of the state u at the system's current load factor and charts:
+// Stability of a state (at its load factor and charts):
 // inertia of the Hessian and its eigenvalue of smallest magnitude, in N/m
 // (twist unknowns expressed as arc lengths theta * momentArm, so that every
 // entry is a stiffness against a displacement), by inverse iteration.
@@ -184,10 +189,10 @@ struct Stability {
   // diagonal entry (kPivotRoundoff eps, solver/modified_ldlt.hh).
   bool zeroMode() const;
 };
-Stability stability(PoseSystem& system, const Design& design, const Eigen::VectorXd& u);
+Stability stability(const PoseSystem& system, const Design& design, const PoseState& state);
 
 // Round-off floor of the force residual at u (rule 2 above), in newtons,
-// from the Hessian the system last assembled at u.
-double roundoffFloor(const PoseSystem& system, const Eigen::VectorXd& u);
+// from the Hessian at u (lower triangle, PoseSystem::evaluate).
+double roundoffFloor(const PoseSystem& system, const Eigen::SparseMatrix<double>& hessian, const Eigen::VectorXd& u);
 
 }  // namespace rodmesh

@@ -6,7 +6,7 @@
 
 namespace rodmesh {
 
-ReducedHessian::ReducedHessian(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
+ReducedHessian::ReducedHessian(const SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
                                const DesignPhase& phase, int threads)
     : model_(model),
       space_(space),
@@ -29,14 +29,13 @@ bool ReducedHessian::prepare(const Eigen::VectorXd& z, const ControlValues& base
   std::vector<char> ok(n, 1);
   forEachPose(n, threads_, [&](int k) {
     try {
-      PoseSystem& sys = model_.pose(k);
+      const PoseSystem& sys = model_.pose(k);
       PoseData& pd = poses_[k];
-      sys.setState(states[k]);
-      const Eigen::VectorXd& u = states[k].u;
+      const PoseState& state = states[k];
       pd.dofs = sys.numDofs();
       Eigen::VectorXd dfdu = Eigen::VectorXd::Zero(pd.dofs);
       gk[k] = Eigen::VectorXd::Zero(d.numParameters());
-      fk[k] = objective_.pose(sys, u, d, &dfdu, &gk[k]);
+      fk[k] = objective_.pose(sys, state, d, &dfdu, &gk[k]);
       const double w = objective_.weight(k);
       pd.fuu = Eigen::VectorXd::Zero(pd.dofs);
       pd.held.clear();
@@ -45,12 +44,12 @@ bool ReducedHessian::prepare(const Eigen::VectorXd& z, const ControlValues& base
         if (vdof[v] >= 0) {
           pd.fuu.segment(vdof[v], sys.dofsPerVertex()).setConstant(w);
         } else {
-          const double c = sys.heldDesignCoefficient(v);
+          const double c = sys.heldDesignCoefficient(v, state.loadFactor);
           if (c != 0.0) pd.held.emplace_back(v, w * c * c);
         }
       }
       if (pd.dofs == 0) return;
-      sys.evaluateJoint(u, d, pd.joint);
+      sys.evaluateJoint(state, d, pd.joint);
       if (!pd.ldlt) pd.ldlt = std::make_unique<Ldlt>();
       pd.ldlt->compute(pd.joint.Huu);
       if (pd.ldlt->info() != Eigen::Success) {
@@ -63,7 +62,7 @@ bool ReducedHessian::prepare(const Eigen::VectorXd& z, const ControlValues& base
         return;
       }
       gk[k] -= pd.joint.Hup.transpose() * lambda;
-      sys.evaluateJoint(u, d, pd.contracted, &lambda);
+      sys.evaluateJoint(state, d, pd.contracted, &lambda);
     } catch (...) {
       ok[k] = 0;
     }

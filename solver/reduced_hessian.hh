@@ -41,7 +41,7 @@ namespace rodmesh {
 
 class ReducedHessian {
  public:
-  ReducedHessian(SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
+  ReducedHessian(const SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
                  const DesignPhase& phase, int threads);
   // At the design of free variables z over `base` with every pose's
   // equilibrium `states` (load factor 1): objective, gradient and what the
@@ -69,7 +69,7 @@ class ReducedHessian {
   };
   Eigen::VectorXd apply(const Eigen::VectorXd& v, bool gaussNewton) const;
 
-  SceneModel& model_;
+  const SceneModel& model_;
   const DesignSpace& space_;
   const TargetObjective& objective_;
   DesignPhase phase_;

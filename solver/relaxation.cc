@@ -44,13 +44,14 @@ std::string RelaxationOptions::isValid() const {
   return "";
 }
 
-RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::VectorXd& u,
-                                  const RelaxationOptions& opt) {
+RelaxationReport relaxEquilibrium(const PoseSystem& sys, const Design& design, Eigen::VectorXd& uInOut,
+                                  const RelaxationOptions& opt, Charts* chartsOut) {
   const auto t0 = Clock::now();
   RelaxationReport rep;
-  const double saved = sys.loadFactor();
-  sys.setLoadFactor(1.0);
-  sys.resetCharts(design);
+  // The full load, twists measured from the design's rest frames.
+  PoseState state{uInOut, sys.restCharts(design), 1.0};
+  Eigen::VectorXd& u = state.u;
+  Eigen::SparseMatrix<double> H;  // the Hessian last evaluated (for the masses)
   const double scale = loadScale(sys, design);
   const double floorForce = sys.roundoffForce(design);
   rep.loadScale = scale;
@@ -58,9 +59,9 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
 
   Eigen::VectorXd g(n), m(n), v = Eigen::VectorXd::Zero(n);
   double E = 0.0;
-  sys.evaluate(u, design, E, g, n > 0);
+  E = sys.evaluate(state, design, &g, n > 0 ? &H : nullptr);
   if (n > 0) {
-    gershgorinMasses(sys.hessian(), opt.massSafety, m);
+    gershgorinMasses(H, opt.massSafety, m);
     rep.massUpdates = 1;
   }
   double res = sys.forceResidual(g).norm();
@@ -76,14 +77,14 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
   bool fromRest = true;
   double kePrev = 0.0, keMax = 0.0, E0 = E;
   Eigen::VectorXd uStart = u, mOld;
-  PoseSystem::Charts chartsStart = sys.charts();
+  Charts chartsStart = state.charts;
   int lastMassUpdate = 0;
   auto kinetic = [&]() { return 0.5 * (m.array() * v.array().square()).sum(); };
   // New fictitious masses from the Hessian just evaluated; the velocities
   // keep their momentum m v.
   auto refreshMasses = [&]() {
     mOld = m;
-    gershgorinMasses(sys.hessian(), opt.massSafety, m);
+    gershgorinMasses(H, opt.massSafety, m);
     v.array() *= mOld.array() / m.array();
     rep.massUpdates++;
     lastMassUpdate = rep.iterations;
@@ -95,7 +96,7 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
     fromRest = true;
     E0 = E;
     uStart = u;
-    chartsStart = sys.charts();
+    chartsStart = state.charts;
   };
 
   double nextProgress = opt.progressInterval;
@@ -143,11 +144,15 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
       // slightly longer step.
       rep.restarts++;
       h = std::min(h * opt.stepGrowth, opt.maxStep);
-      const bool moved = sys.reanchorCharts(u, design);
-      if (moved) rep.chartUpdates++;
+      std::optional<PoseState> reanchored = sys.reanchored(state, design);
+      const bool moved = reanchored.has_value();
+      if (moved) {
+        rep.chartUpdates++;
+        state.charts = std::move(reanchored->charts);
+      }
       const bool refresh = rep.iterations - lastMassUpdate >= opt.massUpdateInterval;
       if (moved || refresh) {
-        sys.evaluate(u, design, E, g, refresh);
+        E = sys.evaluate(state, design, &g, refresh ? &H : nullptr);
         res = sys.forceResidual(g).norm();
         if (refresh) refreshMasses();
       }
@@ -158,7 +163,7 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
 
     u += h * v;
     const bool refresh = rep.iterations + 1 - lastMassUpdate >= opt.massUpdateInterval;
-    sys.evaluate(u, design, E, g, refresh);
+    E = sys.evaluate(state, design, &g, refresh ? &H : nullptr);
     res = sys.forceResidual(g).norm();
     rep.iterations++;
     if (refresh && std::isfinite(E) && g.allFinite()) refreshMasses();
@@ -170,8 +175,8 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
       rep.instabilities++;
       h *= 0.5;
       u = uStart;
-      sys.setCharts(chartsStart);
-      sys.evaluate(u, design, E, g, true);
+      state.charts = chartsStart;
+      E = sys.evaluate(state, design, &g, &H);
       res = sys.forceResidual(g).norm();
       v.setZero();
       refreshMasses();
@@ -181,7 +186,7 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
       // growing (explicit step too long). Stop here with half the step.
       rep.instabilities++;
       h *= 0.5;
-      sys.evaluate(u, design, E, g, true);
+      E = sys.evaluate(state, design, &g, &H);
       v.setZero();
       refreshMasses();
       restartHere();
@@ -199,7 +204,8 @@ RelaxationReport relaxEquilibrium(PoseSystem& sys, const Design& design, Eigen::
   rep.relativeResidual = scale > 0 ? res / scale : res;
   rep.energy = E;
   rep.timeSeconds = since(t0);
-  sys.setLoadFactor(saved);
+  uInOut = u;
+  if (chartsOut) *chartsOut = std::move(state.charts);
   return rep;
 }
 

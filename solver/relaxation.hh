@@ -76,10 +76,10 @@ struct RelaxationReport {
 };
 
 // Full static solve of one pose at load factor 1 from u (use
-// PoseSystem::restDofs), updated in place. Resets the reference-frame charts
-// to the rest frames first, like solveEquilibrium; the charts on return are
-// those of u.
-RelaxationReport relaxEquilibrium(PoseSystem& system, const Design& design, Eigen::VectorXd& u,
-                                  const RelaxationOptions& options);
+// PoseSystem::restDofs), updated in place, its twists measured from the
+// design's rest frames at the start. `charts`, if given, receives the charts
+// of the returned u (they move where edges turn far).
+RelaxationReport relaxEquilibrium(const PoseSystem& system, const Design& design, Eigen::VectorXd& u,
+                                  const RelaxationOptions& options, Charts* charts = nullptr);
 
 }  // namespace rodmesh

@@ -43,17 +43,16 @@ std::vector<int> groupedMinimumDegreeOrder(const Eigen::SparseMatrix<double>& pa
 
 bool outOfPlaneStable(const Scene& scene, const RodNetwork& network, const EffectSet& planarEffects, int pose,
                       const Design& design, const std::vector<Vec3>& positions) {
-  EffectSet full = planarEffects;
-  full.planar = false;
-  full.on[static_cast<int>(Effect::Twist)] = true;
-  PoseSystem sys(scene, network, full, pose);
+  const PoseSystem sys(scene, network, spatialVariant(planarEffects), pose);
   const int n = sys.numDofs();
   if (n == 0) return true;
-  const Eigen::VectorXd u = sys.dofsFrom(positions, Eigen::VectorXd::Zero(network.numEdges()));
-  double e;
+  // Zero twists measured in the charts of the scene's rest frames, under the
+  // full load.
+  const PoseState state{sys.dofsFrom(positions, Eigen::VectorXd::Zero(network.numEdges())),
+                        sys.restCharts(Design::fromScene(scene)), 1.0};
   Eigen::VectorXd g;
-  sys.evaluate(u, design, e, g, true);
-  const Eigen::SparseMatrix<double>& H = sys.hessian();  // lower triangle
+  Eigen::SparseMatrix<double> H;  // lower triangle
+  sys.evaluate(state, design, &g, &H);
 
   // Order by vertices: a vertex's coordinates with the twists of the edges
   // that start at it (AMD on the ~n/4 vertices instead of the n unknowns).

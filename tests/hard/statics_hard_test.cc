@@ -292,12 +292,11 @@ Stability straightTwistedStability(double turns, double lambda) {
   Scene s = rod.scene(turns);
   SceneModel model(s);
   const Design design = Design::fromScene(s);
-  PoseSystem& sys = model.pose(0);
-  sys.setLoadFactor(lambda);
+  const PoseSystem& sys = model.pose(0);
   const double h = rod.L / (rod.N - 1), rate = lambda * rod.moment(turns) / GJ(rod.m, rod.r);
   Eigen::VectorXd theta(rod.N - 1);
   for (int e = 0; e < rod.N - 1; ++e) theta[e] = rate * (0.5 * h + e * h);  // clamp acts over h/2
-  return stability(sys, design, sys.dofsFrom(s.vertices, theta));
+  return stability(sys, design, sys.withRestCharts(sys.dofsFrom(s.vertices, theta), design, lambda));
 }
 
 // One turn's worth: the straight state loses stability below the full load;

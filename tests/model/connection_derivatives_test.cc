@@ -57,7 +57,7 @@ class HardConnection : public testing::TestWithParam<Hard> {
     scene_ = hardScene(GetParam());
     model_ = std::make_unique<SceneModel>(scene_);
     design_ = Design::fromScene(scene_);
-    PoseSystem& sys = model_->pose(0);
+    const PoseSystem& sys = model_->pose(0);
     ASSERT_EQ(sys.numConnectionTerms(), 1);
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> U(-1.0, 1.0);
@@ -73,10 +73,12 @@ class HardConnection : public testing::TestWithParam<Hard> {
     for (Vec3& p : x) p += 0.0015 * Vec3(U(rng), U(rng), U(rng));
     for (int e = 0; e < theta.size(); ++e) theta[e] = 0.4 * U(rng);
     u_ = sys.dofsFrom(x, theta);
+    state_ = sys.withRestCharts(u_, design_);
     if (GetParam() == Hard::Rotated179) {
       // Anchor every chart at the current frames, as the solver does.
-      EXPECT_TRUE(sys.reanchorCharts(u_, design_, 2.0));
-      u_ = sys.dofsFrom(x, theta);
+      std::optional<PoseState> anchored = sys.reanchored(state_, design_, 2.0);
+      ASSERT_TRUE(anchored.has_value());
+      state_ = std::move(*anchored);
     }
     du_.resize(sys.numDofs());
     for (int i = 0; i < sys.numDofs(); ++i) du_[i] = i >= sys.numVertexDofs() ? 0.5 * U(rng) : 0.001 * U(rng);
@@ -86,31 +88,37 @@ class HardConnection : public testing::TestWithParam<Hard> {
       for (int c = 0; c < 3; ++c) dp_[Design::restIndex(v, c)] = 0.001 * U(rng);
       for (int c = 0; c < 2; ++c) dp_[design_.radiusIndex(v, c)] = 0.2 * design_.radii[v][c] * U(rng);
     }
-    sys.setTermFilter(PoseSystem::Terms::Connection);
   }
-  PoseSystem& sys() { return model_->pose(0); }
+  const PoseSystem& sys() { return model_->pose(0); }
+  // The state at unknowns u (the fixture's charts and load factor).
+  PoseState at(const Eigen::VectorXd& u) const {
+    PoseState s = state_;
+    s.u = u;
+    return s;
+  }
+  static constexpr PoseSystem::Terms kTerms = PoseSystem::Terms::Connection;
 
   Scene scene_;
   std::unique_ptr<SceneModel> model_;
   Design design_;
   Eigen::VectorXd u_, du_, dp_;
+  PoseState state_;
 };
 
 constexpr double kMinOrder = 1.85;
 
 TEST_P(HardConnection, GradientHessianAndThirdOrder) {
-  PoseSystem& s = sys();
-  double E;
+  const PoseSystem& s = sys();
   Eigen::VectorXd g;
-  s.evaluate(u_, design_, E, g, true);
+  Eigen::SparseMatrix<double> Hs;
+  const double E = s.evaluate(state_, design_, &g, &Hs, kTerms);
   ASSERT_TRUE(std::isfinite(E));
   EXPECT_GT(E, 0.0) << "the perturbed connection must store energy";
-  const Eigen::MatrixXd H = Eigen::MatrixXd(s.hessian()).selfadjointView<Eigen::Lower>();
-  auto energy = [&](const Eigen::VectorXd& u) { return s.energy(u, design_); };
+  const Eigen::MatrixXd H = Eigen::MatrixXd(Hs).selfadjointView<Eigen::Lower>();
+  auto energy = [&](const Eigen::VectorXd& u) { return s.energy(at(u), design_, kTerms); };
   auto gradient = [&](const Eigen::VectorXd& u) {
-    double e;
     Eigen::VectorXd gg;
-    s.evaluate(u, design_, e, gg, false);
+    s.evaluate(at(u), design_, &gg, nullptr, kTerms);
     return gg;
   };
   EXPECT_TAYLOR_ORDER(taylorTestScalar(energy, u_, du_, g.dot(du_)), kMinOrder);
@@ -118,19 +126,19 @@ TEST_P(HardConnection, GradientHessianAndThirdOrder) {
 
   // Third order: D_v of the Hessian (uu block) along v = du.
   auto huu = [&](const Eigen::VectorXd& u) {
-    const JointDerivatives j = s.joint(u, design_);
+    const JointDerivatives j = s.joint(at(u), design_, kTerms);
     Eigen::MatrixXd M(j.Huu);  // both triangles stored
     return Eigen::VectorXd(Eigen::Map<Eigen::VectorXd>(M.data(), M.size()));
   };
-  const JointDerivatives dj = s.jointDirectional(u_, design_, du_);
+  const JointDerivatives dj = s.jointDirectional(state_, design_, du_, kTerms);
   Eigen::MatrixXd dH(dj.Huu);
   EXPECT_TAYLOR_ORDER(taylorTest(huu, u_, du_, Eigen::Map<Eigen::VectorXd>(dH.data(), dH.size())), kMinOrder);
 }
 
 TEST_P(HardConnection, DesignDerivatives) {
-  PoseSystem& s = sys();
+  const PoseSystem& s = sys();
   const int n = s.numDofs(), P = design_.numParameters();
-  const JointDerivatives j = s.joint(u_, design_);
+  const JointDerivatives j = s.joint(state_, design_, kTerms);
   Eigen::MatrixXd Hup(j.Hup);
   ASSERT_EQ(Hup.rows(), n);
   ASSERT_EQ(Hup.cols(), P);
@@ -140,12 +148,11 @@ TEST_P(HardConnection, DesignDerivatives) {
     d.fromVector(p);
     return d;
   };
-  auto energyP = [&](const Eigen::VectorXd& p) { return s.energy(u_, designOf(p)); };
+  auto energyP = [&](const Eigen::VectorXd& p) { return s.energy(state_, designOf(p), kTerms); };
   EXPECT_TAYLOR_ORDER(taylorTestScalar(energyP, p0, dp_, j.gp.dot(dp_)), kMinOrder);
   auto gradU = [&](const Eigen::VectorXd& p) {
-    double e;
     Eigen::VectorXd gg;
-    s.evaluate(u_, designOf(p), e, gg, false);
+    s.evaluate(state_, designOf(p), &gg, nullptr, kTerms);
     return gg;
   };
   EXPECT_TAYLOR_ORDER(taylorTest(gradU, p0, dp_, Hup * dp_), kMinOrder);
@@ -163,17 +170,18 @@ TEST(ConnectionInvariance, RigidRotationCostsNothing) {
     Scene s = star({0.0, 2.1, 4.2}, 1.0);
     SceneModel model(s);
     const Design d = Design::fromScene(s);
-    PoseSystem& sys = model.pose(0);
-    sys.setTermFilter(PoseSystem::Terms::Connection);
+    const PoseSystem& sys = model.pose(0);
     const Eigen::Matrix3d R =
         Eigen::AngleAxisd(degrees * 3.14159265358979323846 / 180.0, Vec3(0.3, -0.5, 1.0).normalized()).toRotationMatrix();
     std::vector<Vec3> x = d.restPositions;
     for (Vec3& p : x) p = R * p;
     // With charts anchored at the rotated rest frames, theta = 0 is the
     // rotated rest material frame.
-    Eigen::VectorXd u = sys.dofsFrom(x, Eigen::VectorXd::Zero(model.network().numEdges()));
-    sys.resetCharts(d);
-    ASSERT_TRUE(sys.reanchorCharts(u, d, 2.0));  // every edge gets a chart at its rotated frame
+    const PoseState rotated =
+        sys.withRestCharts(sys.dofsFrom(x, Eigen::VectorXd::Zero(model.network().numEdges())), d);
+    std::optional<PoseState> anchored = sys.reanchored(rotated, d, 2.0);
+    ASSERT_TRUE(anchored.has_value());  // every edge gets a chart at its rotated frame
+    PoseState state = std::move(*anchored);
     // Re-anchoring transports the rest director along the shortest arc, which
     // differs from the rigid rotation by a turn about the tangent; undo it
     // through theta so the material frames are the rotated rest frames.
@@ -181,11 +189,11 @@ TEST(ConnectionInvariance, RigidRotationCostsNothing) {
     for (int e = 0; e < theta.size(); ++e) {
       const EdgeFrame f = model.network().restFrame(e, d.restPositions);
       const Vec3 t = R * f.t, want = R * f.d1;
-      const Vec3 ref = sys.charts().director[e];
+      const Vec3 ref = state.charts.director[e];
       theta[e] = std::atan2(ref.cross(want).dot(t), ref.dot(want));
     }
-    u = sys.dofsFrom(x, theta);
-    const double E = sys.energy(u, d);
+    state.u = sys.dofsFrom(x, theta);
+    const double E = sys.energy(state, d, PoseSystem::Terms::Connection);
     EXPECT_LT(std::abs(E), 1e-20) << degrees << " degrees";
   }
 }

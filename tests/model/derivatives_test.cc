@@ -94,7 +94,9 @@ struct Fixture {
   std::unique_ptr<SceneModel> model;
   Design design;
   Eigen::VectorXd u, du, dp;
-  PoseSystem& sys() { return model->pose(0); }
+  const PoseSystem& sys() { return model->pose(0); }
+  // The state at unknowns x: the design's rest frames as charts, full load.
+  PoseState at(const Eigen::VectorXd& x) { return sys().withRestCharts(x, design); }
 };
 
 std::unique_ptr<Fixture> makeFixture(Kind kind, unsigned seed) {
@@ -103,7 +105,7 @@ std::unique_ptr<Fixture> makeFixture(Kind kind, unsigned seed) {
                                                                      : makeScene(kind);
   f->model = std::make_unique<SceneModel>(f->scene);
   f->design = Design::fromScene(f->scene);
-  PoseSystem& sys = f->sys();
+  const PoseSystem& sys = f->sys();
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   const double h = 0.01;  // typical edge length
@@ -168,19 +170,17 @@ constexpr double kMinOrder = 1.85;
 TEST_P(TermDerivatives, GradientAndHessian) {
   const Case c = GetParam();
   auto f = makeFixture(c.kind, 7);
-  PoseSystem& sys = f->sys();
-  sys.setTermFilter(c.term);
+  const PoseSystem& sys = f->sys();
   const Design& d = f->design;
-  double E;
   Eigen::VectorXd g;
-  sys.evaluate(f->u, d, E, g, true);
-  const Eigen::MatrixXd H = Eigen::MatrixXd(sys.hessian()).selfadjointView<Eigen::Lower>();
+  Eigen::SparseMatrix<double> Hs;
+  const double E = sys.evaluate(f->at(f->u), d, &g, &Hs, c.term);
+  const Eigen::MatrixXd H = Eigen::MatrixXd(Hs).selfadjointView<Eigen::Lower>();
 
-  auto energy = [&](const Eigen::VectorXd& u) { return sys.energy(u, d); };
+  auto energy = [&](const Eigen::VectorXd& u) { return sys.energy(f->at(u), d, c.term); };
   auto gradient = [&](const Eigen::VectorXd& u) {
-    double e;
     Eigen::VectorXd gg;
-    sys.evaluate(u, d, e, gg, false);
+    sys.evaluate(f->at(u), d, &gg, nullptr, c.term);
     return gg;
   };
   EXPECT_NEAR(energy(f->u), E, 1e-12 * std::abs(E) + 1e-300);
@@ -203,16 +203,16 @@ TEST_P(TermDerivatives, GradientAndHessian) {
 TEST_P(TermDerivatives, DesignDerivatives) {
   const Case c = GetParam();
   auto f = makeFixture(c.kind, 11);
-  PoseSystem& sys = f->sys();
-  sys.setTermFilter(c.term);
+  const PoseSystem& sys = f->sys();
   const int n = sys.numDofs(), P = f->design.numParameters();
+  const PoseState state = f->at(f->u);
   const Eigen::VectorXd p0 = f->design.toVector();
   auto designOf = [&](const Eigen::VectorXd& p) {
     Design d = f->design;
     d.fromVector(p);
     return d;
   };
-  const JointDerivatives j = sys.joint(f->u, f->design);
+  const JointDerivatives j = sys.joint(state, f->design, c.term);
   const Eigen::MatrixXd Hup = dense(j.Hup, false);
   const Eigen::MatrixXd Hpp = dense(j.Hpp, true);
   const Eigen::MatrixXd Huu = dense(j.Huu, false);
@@ -222,18 +222,18 @@ TEST_P(TermDerivatives, DesignDerivatives) {
   EXPECT_LE((Huu - Huu.transpose()).norm(), 1e-14 * (Huu.norm() + 1e-300));
 
   // Both code paths (simulation and joint) agree on value, gradient, Hessian.
-  double E;
   Eigen::VectorXd g;
-  sys.evaluate(f->u, f->design, E, g, true);
+  Eigen::SparseMatrix<double> Hs;
+  const double E = sys.evaluate(state, f->design, &g, &Hs, c.term);
   EXPECT_NEAR(j.energy, E, 1e-12 * std::abs(E) + 1e-300);
   EXPECT_LE((j.gu - g).norm(), 1e-12 * (g.norm() + 1e-300));
-  const Eigen::MatrixXd Hsim = Eigen::MatrixXd(sys.hessian()).selfadjointView<Eigen::Lower>();
+  const Eigen::MatrixXd Hsim = Eigen::MatrixXd(Hs).selfadjointView<Eigen::Lower>();
   EXPECT_LE((Huu - Hsim).norm(), 1e-12 * (Hsim.norm() + 1e-300));
 
   // The first-order product (dF/dp)^T lambda and (dF/du) lambda match the
   // Hessian blocks.
   Eigen::VectorXd Hl;
-  const Eigen::VectorXd prod = sys.designForceProduct(f->u, f->design, f->du, &Hl);
+  const Eigen::VectorXd prod = sys.designForceProduct(state, f->design, f->du, &Hl, c.term);
   EXPECT_LE((prod - Hup.transpose() * f->du).norm(), 1e-10 * ((Hup.transpose() * f->du).norm() + 1e-300));
   EXPECT_LE((Hl - Huu * f->du).norm(), 1e-10 * ((Huu * f->du).norm() + 1e-300));
   if (c.term == Terms::Forces) {
@@ -243,33 +243,31 @@ TEST_P(TermDerivatives, DesignDerivatives) {
     return;  // no force acts on a held vertex here: dE/dp = 0, nothing more to check
   }
   // dE/dp.
-  auto energyP = [&](const Eigen::VectorXd& p) { return sys.energy(f->u, designOf(p)); };
+  auto energyP = [&](const Eigen::VectorXd& p) { return sys.energy(state, designOf(p), c.term); };
   EXPECT_TAYLOR_ORDER(taylorTestScalar(energyP, p0, f->dp, j.gp.dot(f->dp)), kMinOrder);
   // d(grad_u E)/dp = H_up.
   auto gradU = [&](const Eigen::VectorXd& p) {
-    double e;
     Eigen::VectorXd gg;
-    sys.evaluate(f->u, designOf(p), e, gg, false);
+    sys.evaluate(state, designOf(p), &gg, nullptr, c.term);
     return gg;
   };
   EXPECT_TAYLOR_ORDER(taylorTest(gradU, p0, f->dp, Hup * f->dp), kMinOrder);
   // d(grad_p E)/dp = H_pp and d(grad_p E)/du = H_up^T.
-  auto gradP = [&](const Eigen::VectorXd& p) { return sys.joint(f->u, designOf(p)).gp; };
+  auto gradP = [&](const Eigen::VectorXd& p) { return sys.joint(state, designOf(p), c.term).gp; };
   EXPECT_TAYLOR_ORDER(taylorTest(gradP, p0, f->dp, Hpp * f->dp), kMinOrder);
   if (c.term == Terms::Forces) return;  // dE/dp does not depend on u: nothing to check
-  auto gradPu = [&](const Eigen::VectorXd& u) { return sys.joint(u, f->design).gp; };
+  auto gradPu = [&](const Eigen::VectorXd& u) { return sys.joint(f->at(u), f->design, c.term).gp; };
   EXPECT_TAYLOR_ORDER(taylorTest(gradPu, f->u, f->du, Hup.transpose() * f->du), kMinOrder);
 }
 
 TEST_P(TermDerivatives, ThirdOrderDirectional) {
   const Case c = GetParam();
   auto f = makeFixture(c.kind, 13);
-  PoseSystem& sys = f->sys();
-  sys.setTermFilter(c.term);
+  const PoseSystem& sys = f->sys();
   const int n = sys.numDofs(), P = f->design.numParameters();
   const Eigen::VectorXd& v = f->du;
-  const JointDerivatives j = sys.joint(f->u, f->design);
-  const JointDerivatives dj = sys.jointDirectional(f->u, f->design, v);
+  const JointDerivatives j = sys.joint(f->at(f->u), f->design, c.term);
+  const JointDerivatives dj = sys.jointDirectional(f->at(f->u), f->design, v, c.term);
   // D_v of the energy and of the gradient are the gradient and Hessian along v.
   EXPECT_NEAR(dj.energy, j.gu.dot(v), 1e-11 * (std::abs(j.gu.dot(v)) + j.gu.norm() * v.norm()));
   const Eigen::MatrixXd H = jointHessian(j, n, P);
@@ -284,7 +282,9 @@ TEST_P(TermDerivatives, ThirdOrderDirectional) {
     EXPECT_EQ(dH.norm(), 0.0) << "point loads are linear: their third derivatives vanish";
     return;
   }
-  auto hessOf = [&](const Eigen::VectorXd& u) { return flatten(jointHessian(sys.joint(u, f->design), n, P)); };
+  auto hessOf = [&](const Eigen::VectorXd& u) {
+    return flatten(jointHessian(sys.joint(f->at(u), f->design, c.term), n, P));
+  };
   EXPECT_TAYLOR_ORDER(taylorTest(hessOf, f->u, v, dH), kMinOrder);
 }
 
@@ -303,11 +303,10 @@ INSTANTIATE_TEST_SUITE_P(AllTerms, TermDerivatives, testing::ValuesIn(allCases()
 // The helper itself: a wrong derivative must be caught (first-order remainder).
 TEST(TaylorHelper, DetectsWrongDerivative) {
   auto f = makeFixture(Kind::Spatial, 3);
-  PoseSystem& sys = f->sys();
-  double E;
+  const PoseSystem& sys = f->sys();
   Eigen::VectorXd g;
-  sys.evaluate(f->u, f->design, E, g, false);
-  auto energy = [&](const Eigen::VectorXd& u) { return sys.energy(u, f->design); };
+  sys.evaluate(f->at(f->u), f->design, &g, nullptr);
+  auto energy = [&](const Eigen::VectorXd& u) { return sys.energy(f->at(u), f->design); };
   const auto good = taylorTestScalar(energy, f->u, f->du, g.dot(f->du));
   const auto bad = taylorTestScalar(energy, f->u, f->du, 1.01 * g.dot(f->du));
   EXPECT_GE(good.order, kMinOrder);

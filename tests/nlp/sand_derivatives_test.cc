@@ -55,12 +55,11 @@ std::unique_ptr<Fixture> makeProblem(bool planar, const DesignPhase* phaseIn = n
   SandScaling sc;
   sc.objective = 1e-6;
   for (int k = 0; k < f->model->numPoses(); ++k) {
-    PoseSystem& sys = f->model->pose(k);
+    const PoseSystem& sys = f->model->pose(k);
     PoseState s = sys.restState(d0);
     const NewtonReport r = solveEquilibrium(sys, d0, s, NewtonOptions{});
     EXPECT_TRUE(r.converged) << r.message;
     states.push_back(s);
-    sys.setLoadFactor(1.0);
     sc.load.push_back(loadScale(sys, d0));
   }
   sc.variable = designVariableScale(*f->space, phase, f->scene);

@@ -16,7 +16,7 @@
 namespace rodmesh {
 namespace {
 
-double resolvedRms(SceneModel& model, const Scene& scene, const Design& d) {
+double resolvedRms(const SceneModel& model, const Scene& scene, const Design& d) {
   const SimulationResult sim = simulateAll(model, d, NewtonOptions{});
   EXPECT_TRUE(sim.allConverged);
   return rmsError(sim);

@@ -174,7 +174,7 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
   const ControlValues c0 = space.initialControls(s);
   const Design d0 = space.toDesign(c0);
   const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
-  const std::vector<Vec3> down = model.pose(0).positions(inverted.u, d0);
+  const std::vector<Vec3> down = model.pose(0).positions(inverted, d0);
   ASSERT_LT(down[20].z(), -0.04);
   // Targets: the inverted arch 1 mm lower still, so that the inverted
   // equilibrium is much better than the arch up but not exact.
@@ -192,7 +192,7 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
   ASSERT_EQ(phases.tasks.size(), 2u) << r.status.message;
   EXPECT_GT(phases.tasks[0].states[0].u.size(), 0);
   // The second attempt starts from the loading path's equilibrium: the arch up.
-  const std::vector<Vec3> start = targeted.pose(0).positions(phases.tasks[1].states[0].u, d0);
+  const std::vector<Vec3> start = targeted.pose(0).positions(phases.tasks[1].states[0], d0);
   EXPECT_GT(start[20].z(), 0.0);
   const double invertedObjective = 0.5 * 41 * 1e-6;  // every vertex 1 mm off
   EXPECT_GT(phases.tasks[1].objective, 100 * invertedObjective) << "the path's objective, not the inverted one's";
@@ -201,7 +201,7 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
   EXPECT_NE(r.status.message.find("off the loading path"), std::string::npos) << r.status.message;
   EXPECT_NE(r.status.message.find("as loaded from rest"), std::string::npos) << r.status.message;
   // The result's equilibria are the loading path's: the arch up.
-  const std::vector<Vec3> own = targeted.pose(0).positions(r.states[0].u, d0);
+  const std::vector<Vec3> own = targeted.pose(0).positions(r.states[0], d0);
   EXPECT_GT(own[20].z(), 0.0);
   const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
   EXPECT_FALSE(a.offPath) << a.note;
@@ -219,7 +219,7 @@ TEST(DesignDriver, ReducedRunOnTheArchEndsOnTheLoadingPath) {
     const DesignSpace space(s, model.effects());
     const Design d0 = space.toDesign(space.initialControls(s));
     const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
-    s.poses[0].target = model.pose(0).positions(inverted.u, d0);
+    s.poses[0].target = model.pose(0).positions(inverted, d0);
   }
   SceneModel model(s);
   const DesignSpace space(s, model.effects());

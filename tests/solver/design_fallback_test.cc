@@ -27,7 +27,7 @@ namespace rodmesh {
 namespace {
 
 // A reduced run of `iterations` iterations with these Newton options.
-DesignOptimizerResult reducedRun(SceneModel& model, const DesignSpace& space, int iterations,
+DesignOptimizerResult reducedRun(const SceneModel& model, const DesignSpace& space, int iterations,
                                  const NewtonOptions& newton) {
   DesignOptimizerOptions o;
   o.maxIterations = iterations;
@@ -116,7 +116,7 @@ TEST(DesignFallback, DesignWhoseEquilibriaAreNotTheLoadingPathsIsMarkedOffThePat
   DesignOptimizerResult r;
   r.controls = space.initialControls(s);
   r.design = space.toDesign(r.controls);
-  PoseSystem& sys = model.pose(0);
+  const PoseSystem& sys = model.pose(0);
   // The inverted branch: Newton from the mirrored arch at the full load.
   std::vector<Vec3> mirrored = s.vertices;
   for (Vec3& x : mirrored) x.z() = -x.z();
@@ -124,7 +124,7 @@ TEST(DesignFallback, DesignWhoseEquilibriaAreNotTheLoadingPathsIsMarkedOffThePat
   inverted.u = sys.dofsFrom(mirrored, Eigen::VectorXd());
   inverted.loadFactor = 1.0;
   ASSERT_TRUE(solveEquilibrium(sys, r.design, inverted, NewtonOptions{}).converged);
-  const std::vector<Vec3> down = sys.positions(inverted.u, r.design);
+  const std::vector<Vec3> down = sys.positions(inverted, r.design);
   ASSERT_LT(down[20].z(), -0.04);
   s.poses[0].target = down;
   SceneModel targeted(s);

@@ -90,13 +90,13 @@ Scene curvedGrid(int nx, int ny, int k, double spacing, double bump, bool bridge
 }
 
 // Static equilibrium by Newton (production path, given tolerance).
-Eigen::VectorXd newtonEquilibrium(PoseSystem& sys, const Design& d, double tol) {
+PoseState newtonEquilibrium(const PoseSystem& sys, const Design& d, double tol) {
   NewtonOptions opt;
   opt.tolerance = tol;
-  Eigen::VectorXd u = sys.restDofs(d);
-  const NewtonReport r = solveEquilibrium(sys, d, u, opt);
+  PoseState s = sys.restState(d);
+  const NewtonReport r = solveEquilibrium(sys, d, s, opt);
   EXPECT_TRUE(r.converged) << r.message;
-  return u;
+  return s;
 }
 
 double maxDistance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
@@ -122,10 +122,9 @@ TEST(Mass, LumpedMassesSumToTheRodMassAndMatchGravity) {
   // Weight on each vertex (minus the gravity gradient) is m_v g.
   s.gravity = Vec3(0.0, 0.0, -9.81);
   SceneModel model(s);
-  PoseSystem& sys = model.pose(0);
+  const PoseSystem& sys = model.pose(0);
   Eigen::VectorXd g;
-  double e;
-  sys.evaluate(sys.restDofs(d), d, e, g, false);
+  sys.evaluate(sys.withRestCharts(sys.restDofs(d), d), d, &g, nullptr);
   const Eigen::VectorXd dm = dofMasses(sys, m);
   ASSERT_EQ(dm.size(), sys.numDofs());
   for (int v = 0; v < net.numVertices(); ++v) {
@@ -166,19 +165,18 @@ TEST(Dynamics, FreeFallFollowsBackwardEulerExactly) {
   Scene s = testutil::straightRod(8, 0.1, 0.002, 0.001);
   s.gravity = Vec3(0.0, 0.3, -9.81);  // not in the rod's plane: 3D with twist
   SceneModel model(s);
-  PoseSystem& sys = model.pose(0);
+  const PoseSystem& sys = model.pose(0);
   ASSERT_TRUE(sys.hasTwist());
   const Design d = Design::fromScene(s);
   DynamicsOptions opt;
   opt.initialStep = opt.maxStep = 1e-3;
-  sys.resetCharts(d);
   BackwardEuler be(sys, d, dofMasses(sys, lumpedVertexMasses(model.network(), d, s.material.density)), opt);
-  be.setState(sys.restDofs(d), Eigen::VectorXd::Zero(sys.numDofs()));
+  be.start(sys.restState(d), Eigen::VectorXd::Zero(sys.numDofs()));
   const int n = 50;
   ASSERT_TRUE(be.advanceTo(n * 1e-3)) << be.report().message;
   EXPECT_EQ(be.report().steps, n);
   EXPECT_EQ(be.report().rejectedSteps, 0);
-  const std::vector<Vec3> x = sys.positions(be.dofs(), d);
+  const std::vector<Vec3> x = sys.positions(be.state(), d);
   const double h = 1e-3, fall = h * h * n * (n + 1) / 2.0;
   for (std::size_t v = 0; v < x.size(); ++v) {
     const Vec3 expected = s.vertices[v] + fall * *s.gravity;
@@ -201,7 +199,7 @@ struct Oscillation {
   Scene loaded, free;
   std::unique_ptr<SceneModel> mLoaded, mFree;
   Design design;
-  Eigen::VectorXd u0;
+  PoseState s0;  // the loaded equilibrium (unknowns and charts) the motion starts from
   double tip0 = 0.0;
 };
 
@@ -213,12 +211,11 @@ std::unique_ptr<Oscillation> releasedCantilever(int edges, double L, double rt, 
   o->mLoaded = std::make_unique<SceneModel>(o->loaded);
   o->mFree = std::make_unique<SceneModel>(o->free);
   o->design = Design::fromScene(o->free);
-  PoseSystem& sl = o->mLoaded->pose(0);
-  o->u0 = newtonEquilibrium(sl, o->design, 1e-10);
-  o->tip0 = sl.positions(o->u0, o->design)[edges].z();
-  PoseSystem& sf = o->mFree->pose(0);
+  const PoseSystem& sl = o->mLoaded->pose(0);
+  o->s0 = newtonEquilibrium(sl, o->design, 1e-10);
+  o->tip0 = sl.positions(o->s0, o->design)[edges].z();
+  const PoseSystem& sf = o->mFree->pose(0);
   EXPECT_EQ(sf.numDofs(), sl.numDofs());
-  sf.setCharts(sl.charts());
   return o;
 }
 
@@ -233,18 +230,18 @@ TEST(Dynamics, CantileverPeriodMatchesFirstBendingMode) {
   const double period = 2 * kPi / omega;
   ASSERT_LT(std::abs(o->tip0), 5e-3 * L) << "small amplitude";
 
-  PoseSystem& sys = o->mFree->pose(0);
+  const PoseSystem& sys = o->mFree->pose(0);
   DynamicsOptions opt;
   opt.initialStep = opt.maxStep = period / 400;
   BackwardEuler be(sys, o->design, dofMasses(sys, lumpedVertexMasses(o->mFree->network(), o->design, mat.density)),
                    opt);
-  be.setState(o->u0, Eigen::VectorXd::Zero(sys.numDofs()));
+  be.start(o->s0, Eigen::VectorXd::Zero(sys.numDofs()));
   std::vector<double> t{0.0}, z{o->tip0};
   const int steps = static_cast<int>(2.6 * 400);
   for (int i = 1; i <= steps; ++i) {
     ASSERT_TRUE(be.advanceTo(i * opt.maxStep)) << be.report().message;
     t.push_back(be.time());
-    z.push_back(sys.positions(be.dofs(), o->design)[N].z());
+    z.push_back(sys.positions(be.state(), o->design)[N].z());
   }
   const double measured = measuredPeriod(t, z);
   RecordProperty("period_closed_form_s", std::to_string(period));
@@ -262,12 +259,12 @@ TEST(Dynamics, EnergyNeverIncreasesWithoutForcing) {
   const int N = 12;
   auto o = releasedCantilever(N, 0.1, 0.002, 0.001, 2e-3);
   ASSERT_GT(std::abs(o->tip0), 0.05 * 0.1);
-  PoseSystem& sys = o->mFree->pose(0);
+  const PoseSystem& sys = o->mFree->pose(0);
   DynamicsOptions opt;
   opt.maxStep = 5e-3;
   BackwardEuler be(sys, o->design,
                    dofMasses(sys, lumpedVertexMasses(o->mFree->network(), o->design, o->free.material.density)), opt);
-  be.setState(o->u0, Eigen::VectorXd::Zero(sys.numDofs()));
+  be.start(o->s0, Eigen::VectorXd::Zero(sys.numDofs()));
   const double E0 = be.kineticEnergy() + be.potentialEnergy();
   ASSERT_GT(E0, 0.0);
   double prev = E0;
@@ -288,9 +285,9 @@ TEST(Dynamics, SettlesToTheStaticEquilibrium) {
   ASSERT_GT(model.network().numConnections(), 0);
   ASSERT_TRUE(model.effects().has(Effect::Connections));
   const Design d = Design::fromScene(s);
-  PoseSystem& sys = model.pose(0);
-  const Eigen::VectorXd uStatic = newtonEquilibrium(sys, d, 1e-10);
-  const std::vector<Vec3> xStatic = sys.positions(uStatic, d);
+  const PoseSystem& sys = model.pose(0);
+  const PoseState sStatic = newtonEquilibrium(sys, d, 1e-10);
+  const std::vector<Vec3> xStatic = sys.positions(sStatic, d);
   const double sag = maxDistance(xStatic, s.vertices);
   ASSERT_GT(sag, 1e-3);
 
@@ -368,20 +365,21 @@ TEST(Relaxation, OptionsValidation) {
 void expectSameEquilibrium(const Scene& s, double tol) {
   SceneModel model(s);
   const Design d = Design::fromScene(s);
-  PoseSystem& sys = model.pose(0);
-  const Eigen::VectorXd uN = newtonEquilibrium(sys, d, tol);
-  const std::vector<Vec3> xN = sys.positions(uN, d);
+  const PoseSystem& sys = model.pose(0);
+  const PoseState sN = newtonEquilibrium(sys, d, tol);
+  const std::vector<Vec3> xN = sys.positions(sN, d);
   Eigen::VectorXd gN;
-  double e;
-  sys.evaluate(uN, d, e, gN, true);
-  const Eigen::MatrixXd H = Eigen::MatrixXd(sys.hessian()).selfadjointView<Eigen::Lower>();
+  Eigen::SparseMatrix<double> HN;
+  sys.evaluate(sN, d, &gN, &HN);
+  const Eigen::MatrixXd H = Eigen::MatrixXd(HN).selfadjointView<Eigen::Lower>();
   const double lambdaMin = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(H).eigenvalues().minCoeff();
   ASSERT_GT(lambdaMin, 0.0) << "stable equilibrium";
 
   Eigen::VectorXd uR = sys.restDofs(d);
   RelaxationOptions ro;
   ro.tolerance = tol;
-  const RelaxationReport r = relaxEquilibrium(sys, d, uR, ro);
+  Charts chartsR;
+  const RelaxationReport r = relaxEquilibrium(sys, d, uR, ro, &chartsR);
   ASSERT_TRUE(r.converged) << r.message;
   // Converged: below the tolerance, or at the round-off floor as in Newton.
   EXPECT_TRUE(r.relativeResidual <= tol || r.residualNorm <= sys.roundoffForce(d)) << r.relativeResidual;
@@ -390,8 +388,9 @@ void expectSameEquilibrium(const Scene& s, double tol) {
   EXPECT_EQ(r.residualHistory.size(), r.historySeconds.size());
   EXPECT_EQ(r.residualHistory.back(), r.relativeResidual);
   Eigen::VectorXd gR;
-  sys.evaluate(uR, d, e, gR, false);
-  const std::vector<Vec3> xR = sys.positions(uR, d);
+  const PoseState sR{uR, chartsR, 1.0};
+  sys.evaluate(sR, d, &gR, nullptr);
+  const std::vector<Vec3> xR = sys.positions(sR, d);
   const double bound = (gR.norm() + gN.norm()) / lambdaMin;
   const double moved = maxDistance(xN, s.vertices);
   ::testing::Test::RecordProperty("relaxation_iterations", r.iterations);

@@ -113,11 +113,11 @@ TEST_P(ReducedHessianProduct, GaussNewtonIsTheSquaredPositionJacobian) {
     const Design d = space_->toDesign(space_->unpack(phase_, z, base_));
     std::vector<std::vector<Vec3>> x;
     for (int k = 0; k < model_->numPoses(); ++k) {
-      PoseSystem& sys = model_->pose(k);
+      const PoseSystem& sys = model_->pose(k);
       PoseState st = states0[k];
       const NewtonReport rep = solveEquilibrium(sys, d, st, newton_);
       EXPECT_TRUE(rep.converged);
-      x.push_back(sys.positions(st.u, d));
+      x.push_back(sys.positions(st, d));
     }
     return x;
   };

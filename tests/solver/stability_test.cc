@@ -20,14 +20,12 @@ namespace {
 // Smallest eigenvalue of the full 3D model's Hessian at the planar state,
 // diagonally scaled, relative to the largest in magnitude.
 double relativeSmallestEigenvalue(const Scene& s, const SceneModel& planar, const std::vector<Vec3>& x) {
-  EffectSet full = planar.effects();
-  full.planar = false;
-  full.on[static_cast<int>(Effect::Twist)] = true;
-  PoseSystem sys(s, planar.network(), full, 0);
-  double e;
+  const PoseSystem sys(s, planar.network(), spatialVariant(planar.effects()), 0);
+  const Design d = Design::fromScene(s);
   Eigen::VectorXd g;
-  sys.evaluate(sys.dofsFrom(x, Eigen::VectorXd::Zero(planar.network().numEdges())), Design::fromScene(s), e, g, true);
-  Eigen::MatrixXd H = Eigen::MatrixXd(sys.hessian()).selfadjointView<Eigen::Lower>();
+  Eigen::SparseMatrix<double> Hs;
+  sys.evaluate(sys.withRestCharts(sys.dofsFrom(x, Eigen::VectorXd::Zero(planar.network().numEdges())), d), d, &g, &Hs);
+  Eigen::MatrixXd H = Eigen::MatrixXd(Hs).selfadjointView<Eigen::Lower>();
   // Symmetric diagonal scaling (same inertia, Sylvester's law): stretching
   // is far stiffer than bending and twisting, unscaled the relevant
   // eigenvalues would drown in the largest.

@@ -115,7 +115,7 @@ Scene invertibleArch() {
   return s;
 }
 
-PoseState invertedArchState(const Scene& s, PoseSystem& sys, const Design& d) {
+PoseState invertedArchState(const Scene& s, const PoseSystem& sys, const Design& d) {
   std::vector<Vec3> mirrored = s.vertices;
   for (Vec3& x : mirrored) x.z() = -x.z();
   PoseState inverted = sys.restState(d);

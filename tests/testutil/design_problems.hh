@@ -52,7 +52,7 @@ NewtonOptions fallbackCaseNewton();
 Scene invertibleArch();
 // The arch `s`'s inverted equilibrium under `d` (Newton from the mirrored arch
 // at the full load), as a state of `sys`.
-PoseState invertedArchState(const Scene& s, PoseSystem& sys, const Design& d);
+PoseState invertedArchState(const Scene& s, const PoseSystem& sys, const Design& d);
 
 // A small hexagonal sheet (meshing/grid, 2 x 2 cells, 0.06 m) clamped along
 // its left side; poses: "sag" (gravity), "lift" (right corner pulled and
