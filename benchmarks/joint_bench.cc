@@ -19,6 +19,7 @@
 #include <cstring>
 #include <ctime>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -83,13 +84,13 @@ int main(int argc, char** argv) {
   if (!only.empty()) {
     using Terms = PoseSystem::Terms;
     Terms terms = Terms::All;
-    if (term == "stretch") terms = Terms::Stretch;
-    else if (term == "bend") terms = Terms::BendTwist;
-    else if (term == "connection") terms = Terms::Connection;
-    else if (term == "gravity") terms = Terms::Gravity;
-    else if (!term.empty()) {
-      std::fprintf(stderr, "--term: stretch, bend, connection or gravity, not '%s'\n", term.c_str());
-      return 2;
+    if (!term.empty()) {
+      try {
+        terms = Terms::named(term == "bend" ? "bend_twist" : term);
+      } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "--term: %s\n", e.what());
+        return 2;
+      }
     }
     std::function<void()> fn;
     if (only == "sim") fn = [&] { sys.evaluate(state, d, &g, &H, terms); };
@@ -111,19 +112,21 @@ int main(int argc, char** argv) {
   std::printf("unknowns %d, design parameters %d, pattern nnz: Huu %ld (full), Hup %ld, Hpp %ld (lower)\n",
               sys.numDofs(), d.numParameters(), static_cast<long>(j.Huu.nonZeros()),
               static_cast<long>(j.Hup.nonZeros()), static_cast<long>(j.Hpp.nonZeros()));
-  std::printf("stencils: %d stretch, %d bend-twist, %d clamp, %d connection\n", sys.numStretch(),
-              sys.numBendTwist(), sys.numClamp(), sys.numConnectionTerms());
+  std::printf("stencils:");
+  for (std::size_t t = 0; t < PoseSystem::termKinds().size(); ++t)
+    std::printf("%s %d %s", t ? "," : "", sys.termCount(static_cast<int>(t)), PoseSystem::termKinds()[t].name);
+  std::printf("\n");
   row("simulation energy+gradient+Hessian", sim, sim);
   row("joint values (fixed patterns)", values, sim);
   row("joint third-order directional", third, sim);
   row("(dF/dp)^T lambda, first order", product, sim);
   if (breakdown) {
     using Terms = PoseSystem::Terms;
-    const std::pair<Terms, const char*> terms[] = {{Terms::Stretch, "stretch"},     {Terms::BendTwist, "bend-twist"},
-                                                   {Terms::Clamp, "clamp"},         {Terms::Connection, "connection"},
-                                                   {Terms::Gravity, "gravity"},     {Terms::Forces, "point loads"}};
     std::printf("per term, cpu ms: simulation / joint values / third order / product\n");
-    for (const auto& [t, name] : terms) {
+    for (std::size_t k = 0; k < PoseSystem::termKinds().size(); ++k) {
+      if (sys.termCount(static_cast<int>(k)) == 0) continue;
+      const Terms t = Terms::only(static_cast<int>(k));
+      const char* name = PoseSystem::termKinds()[k].name;
       const Timing s = median([&] { sys.evaluate(state, d, &g, &H, t); });
       const Timing v = median([&] { sys.evaluateJoint(state, d, j, nullptr, t); });
       const Timing th = median([&] { sys.evaluateJoint(state, d, j, &lambda, t); });

@@ -351,7 +351,8 @@ Scene parseScene(const std::string& text, const std::string& path) {
     for (std::size_t p = 0; p < np; ++p) {
       Node pn = poses.at(p);
       if (!pn.j->is_object()) pn.fail("expected an object, got " + pn.typeName());
-      warnUnknownKeys(pn, {"name", "weight", "fixed", "clamped", "forces", "twisting_moments", "target"});
+      warnUnknownKeys(pn, {"name", "weight", "fixed", "clamped", "forces", "twisting_moments", "contacts",
+                               "target"});
       Pose pose;
       pose.name = pn.has("name") ? pn["name"].string() : "pose" + std::to_string(p);
       if (pn.has("name")) checkPoseName(pn["name"], pose.name);
@@ -420,6 +421,24 @@ Scene parseScene(const std::string& text, const std::string& path) {
             e["vertex"].fail("vertex " + std::to_string(m.vertex) + " is not the free end of a rod; twisting moments act on free ends");
           m.moment = e["moment"].numberWithin(-limits::kMaxMoment, limits::kMaxMoment, "N m");
           pose.twistingMoments.push_back(m);
+        }
+      }
+      if (pn.has("contacts")) {
+        Node cs = pn["contacts"];
+        std::size_t n = cs.arraySize();
+        for (std::size_t i = 0; i < n; ++i) {
+          Node e = cs.at(i);
+          if (!e.j->is_object())
+            e.fail("expected an object with keys \"vertices\", \"distance\" and \"stiffness\", got " + e.typeName());
+          VertexContact c;
+          Node vs = e["vertices"];
+          if (vs.arraySize() != 2) vs.fail("expected two vertex indices");
+          c.a = vs.at(0).index(nv, "vertex");
+          c.b = vs.at(1).index(nv, "vertex");
+          if (c.a == c.b) vs.fail("a contact joins two different vertices, got " + std::to_string(c.a) + " twice");
+          c.distance = e["distance"].numberWithin(limits::kMinEdgeLength, limits::kMaxCoordinate, "m");
+          c.stiffness = e["stiffness"].numberWithin(0.0, limits::kMaxForce, "N", true);
+          pose.contacts.push_back(c);
         }
       }
       if (pn.has("target"))

@@ -70,6 +70,10 @@ std::string sceneToJson(const Scene& s, int indent) {
     json moments = json::array();
     for (const TwistingMoment& m : p.twistingMoments) moments.push_back({{"vertex", m.vertex}, {"moment", m.moment}});
     if (!moments.empty()) pj["twisting_moments"] = std::move(moments);
+    json contacts = json::array();
+    for (const VertexContact& c : p.contacts)
+      contacts.push_back({{"vertices", {c.a, c.b}}, {"distance", c.distance}, {"stiffness", c.stiffness}});
+    if (!contacts.empty()) pj["contacts"] = std::move(contacts);
     if (!p.target.empty()) {
       json t = json::array();
       for (const Vec3& v : p.target) t.push_back(vec(v));

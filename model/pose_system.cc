@@ -36,16 +36,6 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
     heldExplicit_[c.vertex] = false;  // a clamp holds the vertex at rest
     clamped[c.vertex] = true;
   }
-  pointForce_.assign(nv, Vec3::Zero());
-  for (const PointForce& f : pose.forces) pointForce_[f.vertex] += f.force;
-  for (const TwistingMoment& m : pose.twistingMoments) {
-    // The edge at the free end; theta turns the frame about the edge
-    // direction a -> b, the moment is about the outward direction.
-    const int e = network.vertexEdges()[m.vertex].front();
-    const double sign = network.edges()[e].b == m.vertex ? 1.0 : -1.0;
-    edgeMoment_.emplace_back(e, sign * m.moment);
-  }
-
   vertexDof_.assign(nv, -1);
   int n = 0;
   for (int v = 0; v < nv; ++v)
@@ -57,26 +47,13 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
   for (const Edge& e : network.edges()) total += (scene.vertices[e.b] - scene.vertices[e.a]).norm();
   momentArm_ = total / std::max(1, ne);
 
-  if (fx_.has(Effect::Stretch))
-    for (int e = 0; e < ne; ++e) stretch_.push_back({e});
-  if (fx_.has(Effect::Bend) || twist_)
-    for (const InteriorVertex& iv : network.interiorVertices())
-      if (!clamped[iv.vertex]) bend_.push_back({iv.vertex, iv.edgeIn, iv.edgeOut});
-  if (fx_.has(Effect::Bend) || twist_)
-    for (int v = 0; v < nv; ++v)
-      if (clamped[v])
-        for (int e : network.vertexEdges()[v]) clamp_.push_back({v, e});
-  if (fx_.has(Effect::Connections) && (fx_.has(Effect::Bend) || twist_))
-    for (const Connection& c : network.connections()) {
-      if (clamped[c.vertex]) continue;  // the clamp holds every incident edge
-      const int k = static_cast<int>(c.edges.size());
-      if (k > energies::kMaxConnectionValence)
-        throw std::invalid_argument("connection at vertex " + std::to_string(c.vertex) + " joins " + std::to_string(k) +
-                                    " edges; at most " + std::to_string(energies::kMaxConnectionValence) + " are supported");
-      ConnSt st{c.vertex, k, {}};
-      for (int i = 0; i < k; ++i) st.edges[i] = c.edges[i];
-      conn_.push_back(st);
-    }
+  auto storage = std::make_shared<TermStorage>();
+  const TermSetup setup{scene, network, fx_, pose, clamped, twist_};
+  TermBlocks::each([&](auto index) {
+    constexpr int I = decltype(index)::value;
+    TermBlocks::Block<I>::collect(setup, std::get<I>(storage->elements));
+  });
+  terms_ = std::move(storage);
 
   buildPattern();
 }
@@ -207,6 +184,61 @@ Eigen::VectorXd PoseSystem::forceResidual(const Eigen::VectorXd& g) const {
   return r;
 }
 
+BuildCtx PoseSystem::context(const std::vector<Vec3>& x, const Eigen::VectorXd& theta, const Design& d,
+                             const std::vector<double>* heldCoef, const Charts& charts, double loadFactor,
+                             Terms terms) const {
+  BuildCtx c{&x, &theta, &d, &vertexDof_, &fx_.planeBasis, fx_.planeOrigin, D_, twist_, nVertexDofs_, heldCoef,
+             &charts, loadFactor, terms};
+  c.scene = &scene_;
+  c.net = &net_;
+  c.fx = &fx_;
+  return c;
+}
+
+const std::vector<TermKind>& PoseSystem::termKinds() {
+  static const std::vector<TermKind> kinds = [] {
+    std::vector<TermKind> k;
+    TermBlocks::each([&](auto index) {
+      using Block = TermBlocks::Block<decltype(index)::value>;
+      k.push_back({Block::kName, Block::kLinear, Block::kLoad, Block::kDesign});
+    });
+    return k;
+  }();
+  return kinds;
+}
+
+int PoseSystem::termKindIndex(const std::string& name) {
+  const std::vector<TermKind>& kinds = termKinds();
+  for (std::size_t i = 0; i < kinds.size(); ++i)
+    if (name == kinds[i].name) return static_cast<int>(i);
+  return -1;
+}
+
+int PoseSystem::termCount(int kind) const {
+  int n = -1;
+  TermBlocks::each([&](auto index) {
+    if (decltype(index)::value == kind) n = static_cast<int>(std::get<decltype(index)::value>(terms_->elements).size());
+  });
+  if (n < 0) throw std::out_of_range("no energy term kind " + std::to_string(kind));
+  return n;
+}
+
+TermSet TermSet::named(const std::string& name) {
+  const int k = PoseSystem::termKindIndex(name);
+  if (k >= 0) return only(k);
+  std::string known;
+  for (const TermKind& t : PoseSystem::termKinds()) known += std::string(known.empty() ? "" : ", ") + t.name;
+  throw std::invalid_argument("unknown energy term '" + name + "' (known: " + known + ")");
+}
+
+TermSet TermSet::loads() {
+  TermSet s(0u);
+  const std::vector<TermKind>& kinds = PoseSystem::termKinds();
+  for (std::size_t i = 0; i < kinds.size(); ++i)
+    if (kinds[i].load) s = s | only(static_cast<int>(i));
+  return s;
+}
+
 // The simulation Hessian's pattern (lower triangle, full diagonal) and the
 // value slot of every (i >= j) pair of each stencil's unknowns, from the one
 // stencil list (evaluated at the scene's rest state: only structure is used).
@@ -214,16 +246,14 @@ void PoseSystem::buildPattern() {
   const Design d0 = Design::fromScene(scene_);
   const std::vector<Vec3> x = d0.restPositions;
   const Eigen::VectorXd theta = Eigen::VectorXd::Zero(net_.numEdges());
-  const Mat32 B = fx_.planeBasis;
   const std::vector<double> hc = heldCoefficients(1.0);
   const Charts charts = restCharts(d0);
   std::vector<std::vector<int>> stencilDofs;
   withLayout([&](auto Dc, auto TWc) {
     constexpr int D = decltype(Dc)::value;
     constexpr bool TW = decltype(TWc)::value;
-    BuildCtx ctx{&x, &theta, &d0, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc, &charts, 1.0,
-                 Terms::All};
-    forEachStencil<D, TW, false>(ctx, [&](const auto&, const LocalStencil& ls, int) {
+    const BuildCtx ctx = context(x, theta, d0, &hc, charts, 1.0, Terms::All);
+    forEachStencil<D, TW>(ctx, [&](const auto&, const LocalStencil& ls, int) {
       stencilDofs.emplace_back(ls.sdofs, ls.sdofs + ls.ns);
     });
   });

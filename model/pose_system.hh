@@ -15,12 +15,13 @@
 //   1. rest positions, 3 per vertex [m];
 //   2. radii [r_t, r_n], 2 per vertex [m].
 //
-// Energy terms (model/energies/*.hh): stretch per edge, bend+twist per interior
-// vertex, clamp coupling per (clamped vertex, incident edge), connection
-// coupling per connection (not clamped), gravity per edge, point forces per
-// vertex, twisting moments per free end. Each is a kernel templated on the scalar type and
-// differentiated by forward-mode AD (model/ad.hh), so the Hessian and the third
-// derivatives are exact.
+// Energy terms: the blocks registered in model/terms/term_list.hh (stretch
+// per edge, bend+twist per interior vertex, clamp coupling per (clamped
+// vertex, incident edge), connection coupling per connection (not clamped),
+// gravity per edge, point forces per loaded vertex, twisting moments per
+// loaded free end, contact penalties per vertex pair). Each is a kernel
+// templated on the scalar type and differentiated by forward-mode AD
+// (model/ad.hh), so the Hessian and the third derivatives are exact.
 #pragma once
 
 #include "model/design.hh"
@@ -31,15 +32,48 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include <memory>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace rodmesh {
 
 namespace detail {
 struct BuildCtx;
+struct TermStorage;
 }
+
+// A set of energy term kinds (the blocks of model/terms/term_list.hh, by
+// index in PoseSystem::termKinds()): every evaluation includes the terms of
+// one set, All by default (tests and diagnostics evaluate one kind alone).
+class TermSet {
+ public:
+  static const TermSet All;
+  static TermSet only(int kind) { return TermSet(1u << kind); }
+  // The kind of that name; throws std::invalid_argument listing the names.
+  static TermSet named(const std::string& name);
+  // The external loads (gravity, point forces, moments: kinds whose `load` is set).
+  static TermSet loads();
+  bool has(int kind) const { return ((mask_ >> kind) & 1u) != 0; }
+  TermSet operator|(TermSet o) const { return TermSet(mask_ | o.mask_); }
+  bool operator==(TermSet o) const { return mask_ == o.mask_; }
+  bool operator!=(TermSet o) const { return mask_ != o.mask_; }
+
+ private:
+  explicit constexpr TermSet(unsigned mask) : mask_(mask) {}
+  unsigned mask_;
+};
+inline const TermSet TermSet::All{~0u};
+
+// One kind of energy term, as registered (model/terms/term_list.hh).
+struct TermKind {
+  const char* name;
+  bool linear;  // linear in the unknowns: no Hessian, no third derivatives
+  bool load;    // an external load, scaled by the load factor
+  bool design;  // depends on design parameters (beyond the rest positions of held vertices)
+};
 
 // Derivatives of a pose's energy E(u, p) w.r.t. the joint variables (u, p),
 // p in the Design::toVector() layout, in fixed sparsity patterns built once
@@ -89,9 +123,14 @@ class PoseSystem {
   const std::vector<int>& vertexDof() const { return vertexDof_; }  // first unknown of a vertex, -1 if held
   int thetaDof(int edge) const { return twist_ ? nVertexDofs_ + edge : -1; }
 
-  // Which energy terms an evaluation includes (all, or one kind: tests,
-  // diagnostics). Patterns always cover every term.
-  enum class Terms { All, Stretch, BendTwist, Clamp, Gravity, Forces, Connection };
+  // Which energy terms an evaluation includes (TermSet). Patterns always
+  // cover every term.
+  using Terms = TermSet;
+  // The registered kinds of term, in evaluation order, and how many
+  // elements (stencils) of a kind this pose has.
+  static const std::vector<TermKind>& termKinds();
+  static int termKindIndex(const std::string& name);  // -1 if none has that name
+  int termCount(int kind) const;
 
   // Unknowns of the rest configuration (held vertices are not unknowns).
   Eigen::VectorXd restDofs(const Design& d) const;
@@ -171,17 +210,8 @@ class PoseSystem {
   // components divided by momentArm().
   Eigen::VectorXd forceResidual(const Eigen::VectorXd& gradient) const;
 
-  // Which energy terms exist (for reports and tests).
-  int numStretch() const { return static_cast<int>(stretch_.size()); }
-  int numBendTwist() const { return static_cast<int>(bend_.size()); }
-  int numClamp() const { return static_cast<int>(clamp_.size()); }
-  int numConnectionTerms() const { return static_cast<int>(conn_.size()); }
 
  private:
-  struct StretchSt { int edge; };
-  struct BendSt { int vertex, e0, e1; };
-  struct ClampSt { int vertex, edge; };
-  struct ConnSt { int vertex; int k; int edges[8]; };
   struct Stencil {
     int offset = 0;  // into stencilDofs_ / slot tables
     int size = 0;
@@ -192,10 +222,15 @@ class PoseSystem {
   void buildJointPattern() const;
   std::vector<double> heldCoefficients(double loadFactor) const;
 
-  template <int D, bool TW, bool WithGravity, class Visit>
+  // Walks every element of the included blocks (model/terms/term_list.hh)
+  // in order and calls visit(kernel, stencil, index of the stencil).
+  template <int D, bool TW, class Visit>
   void forEachStencil(const detail::BuildCtx& ctx, Visit&& visit) const;
-  template <int D, bool TW, int K, class Visit>
-  void visitConnection(const ConnSt& s, const detail::BuildCtx& ctx, Visit& visit, int sidx) const;
+  // The evaluation context of a state (positions, twists, held-vertex
+  // coefficients owned by the caller).
+  detail::BuildCtx context(const std::vector<Vec3>& x, const Eigen::VectorXd& theta, const Design& d,
+                           const std::vector<double>* heldCoef, const Charts& charts, double loadFactor,
+                           Terms terms) const;
   template <class F>
   void withLayout(F&& f) const;
   template <int D, bool TW, class Out>
@@ -220,22 +255,18 @@ class PoseSystem {
   std::vector<bool> held_;
   std::vector<bool> heldExplicit_;  // held at an explicit position (not at rest)
   std::vector<Vec3> heldTarget_;  // explicit prescribed position at load factor 1
-  std::vector<Vec3> pointForce_;  // summed per vertex
-  std::vector<std::pair<int, double>> edgeMoment_;  // (edge, twisting moment along the edge direction)
 
-  std::vector<StretchSt> stretch_;
-  std::vector<BendSt> bend_;
-  std::vector<ClampSt> clamp_;
-  std::vector<ConnSt> conn_;
+  // Every block's elements (model/terms/term_list.hh), built once.
+  std::shared_ptr<const detail::TermStorage> terms_;
 
-  // Sparsity: per stencil (stretch, bend, clamp in that order) its unknowns and
+  // Sparsity: per stencil (in the order of forEachStencil) its unknowns and
   // the Hessian value slot of each (i >= j) pair.
   std::vector<int> stencilDofs_;
   std::vector<int> stencilSlots_;
   std::vector<Stencil> stencils_;
   Eigen::SparseMatrix<double> hessianPattern_;
 
-  // Joint patterns (built once, on first use, under jointOnce_): per stencil (gravity included), for
+  // Joint patterns (built once, on first use, under jointOnce_): per stencil, for
   // each lower-triangle pair (i >= j) of its JointMap's globals, the value
   // slot it adds to (block << 28 | index into the values of Huu (its lower
   // triangle), Hup or Hpp; -1 for none); Huu's upper triangle is then

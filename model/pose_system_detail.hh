@@ -1,66 +1,16 @@
-// Internal to model/pose_system*.cc: local stencils, kernel callables and the
-// stencil iteration shared by the simulation path (pose_system.cc) and the
+// Internal to model/pose_system*.cc: evaluation of the term blocks' kernels
+// (model/terms/term_list.hh) in simulation and joint modes, and the stencil
+// iteration shared by the simulation path (pose_system.cc) and the
 // joint-derivative path (pose_system_joint.cc). Not part of the API.
 #pragma once
 
-#include "model/energies/bend_twist.hh"
-#include "model/energies/clamp.hh"
-#include "model/energies/connection.hh"
-#include "model/energies/gravity.hh"
-#include "model/energies/stretch.hh"
 #include "model/pose_system.hh"
+#include "model/terms/term_list.hh"
 
 #include <algorithm>
 #include <type_traits>
 
 namespace rodmesh::detail {
-
-using Mat32 = Eigen::Matrix<double, 3, 2>;
-
-// How a local variable of a kernel depends on the stencil's unknowns (x) or on
-// the design parameters (p): sum of at most two coef * variable.
-struct LinMap {
-  int idx[2];
-  double coef[2];
-  void set(int i0, double c0, int i1 = -1, double c1 = 0.0) {
-    idx[0] = i0; coef[0] = c0; idx[1] = i1; coef[1] = c1;
-  }
-};
-
-constexpr int kMaxLocal = 32;    // local variables of one kind (x or p) per stencil
-constexpr int kMaxStencil = 28;  // unknowns per stencil
-
-// Builds a 3-vector from D local scalars w and a constant offset c:
-// D = 3: the scalars themselves; D = 2: c + B w.
-template <int D, class S>
-V3<S> embed(const S* w, const Vec3& c, const Mat32& B) {
-  if constexpr (D == 3) {
-    return V3<S>(w[0], w[1], w[2]);
-  } else {
-    V3<S> r;
-    for (int i = 0; i < 3; ++i) r[i] = S(c[i]) + w[0] * B(i, 0) + w[1] * B(i, 1);
-    return r;
-  }
-}
-
-inline double partOf(double x, bool) { return x; }
-inline double partOf(const ad::Dual& x, bool derivative) { return derivative ? x.d : x.v; }
-
-// One stencil, described by its local variables: values, maps to the stencil's
-// unknowns (x part) and to design parameters (p part).
-struct LocalStencil {
-  // Filled incrementally by the add* builders; only the first nx / np / ns
-  // entries are meaningful.
-  int nx = 0, np = 0;
-  double xv[kMaxLocal];
-  double pv[kMaxLocal];
-  LinMap xmap[kMaxLocal];
-  LinMap pmap[kMaxLocal];
-  int ns = 0;
-  int sdofs[kMaxStencil];    // global unknown per stencil position, -1 if held
-  int svertex[kMaxStencil];  // vertex whose coordinate a position is, -1 for a twist
-  int scoord[kMaxStencil];   // which of the vertex's D coordinates
-};
 
 // Evaluates kernel `k` on the local stencil with N seeded variables: the x
 // variables only (N == nx, p constants) or x and p (N == nx + np). With a
@@ -134,222 +84,6 @@ struct SimOut {
 // Joint value slots are stored as block << kSlotShift | index (block 0: Huu,
 // 1: Hup, 2: Hpp).
 constexpr int kSlotShift = 28;
-
-// ------------------------------------------------------------------------
-// Local stencil builders: values and maps of each kernel's local variables.
-
-struct BuildCtx {
-  const std::vector<Vec3>* x;      // current positions
-  const Eigen::VectorXd* theta;    // current twists (zeros without twist)
-  const Design* d;
-  const std::vector<int>* vdof;
-  const Mat32* B;
-  Vec3 origin;
-  int D;
-  bool twist;
-  int nThetaBase;  // first theta unknown
-  // Per vertex, for held vertices: d(position)/d(rest position of the same
-  // vertex) under the current load factor (1 when held at its rest position,
-  // 1 - load factor when held at an explicit position); unused for free ones.
-  const std::vector<double>* heldCoef = nullptr;
-  // The evaluated state's charts and load factor, and the terms evaluated.
-  const Charts* charts = nullptr;
-  double loadFactor = 1.0;
-  PoseSystem::Terms terms = PoseSystem::Terms::All;
-  bool use(PoseSystem::Terms t) const { return terms == PoseSystem::Terms::All || terms == t; }
-};
-
-// Appends vertex v's unknowns to the stencil; returns its first position.
-inline int addVertex(LocalStencil& ls, const BuildCtx& c, int v) {
-  const int pos = ls.ns;
-  const int k = (*c.vdof)[v];
-  for (int i = 0; i < c.D; ++i) {
-    ls.svertex[ls.ns] = v;
-    ls.scoord[ls.ns] = i;
-    ls.sdofs[ls.ns++] = k < 0 ? -1 : k + i;
-  }
-  return pos;
-}
-inline int addTheta(LocalStencil& ls, const BuildCtx& c, int e) {
-  const int pos = ls.ns;
-  ls.svertex[ls.ns] = -1;
-  ls.scoord[ls.ns] = 0;
-  ls.sdofs[ls.ns++] = c.nThetaBase + e;
-  return pos;
-}
-
-// Local x variables for an edge vector from vertex a (stencil position pa) to
-// b (pb): D scalars w with e = off + B w; returns the offset.
-inline Vec3 addEdgeVars(LocalStencil& ls, const BuildCtx& c, int a, int b, int pa, int pb) {
-  const Vec3 e = (*c.x)[b] - (*c.x)[a];
-  Vec3 off = Vec3::Zero();
-  if (c.D == 3) {
-    for (int i = 0; i < 3; ++i) ls.xv[ls.nx + i] = e[i];
-  } else {
-    const Eigen::Vector2d w = c.B->transpose() * e;
-    off = e - (*c.B) * w;
-    ls.xv[ls.nx] = w[0];
-    ls.xv[ls.nx + 1] = w[1];
-  }
-  for (int i = 0; i < c.D; ++i) ls.xmap[ls.nx + i].set(pb + i, 1.0, pa + i, -1.0);
-  ls.nx += c.D;
-  return off;
-}
-
-// Local x variables for a vertex position: x = off + B w (D == 2) or w.
-inline Vec3 addPointVars(LocalStencil& ls, const BuildCtx& c, int v, int pv) {
-  const Vec3 x = (*c.x)[v];
-  Vec3 off = Vec3::Zero();
-  if (c.D == 3) {
-    for (int i = 0; i < 3; ++i) ls.xv[ls.nx + i] = x[i];
-  } else {
-    const Eigen::Vector2d w = c.B->transpose() * (x - c.origin);
-    off = x - (*c.B) * w;
-    ls.xv[ls.nx] = w[0];
-    ls.xv[ls.nx + 1] = w[1];
-  }
-  for (int i = 0; i < c.D; ++i) ls.xmap[ls.nx + i].set(pv + i, 1.0);
-  ls.nx += c.D;
-  return off;
-}
-
-inline void addThetaVar(LocalStencil& ls, const BuildCtx& c, int e, int pos) {
-  ls.xv[ls.nx] = (*c.theta)[e];
-  ls.xmap[ls.nx].set(pos, 1.0);
-  ls.nx++;
-}
-
-// Design variables: rest edge vector (a -> b), then radii of listed vertices.
-inline void addRestEdge(LocalStencil& ls, const BuildCtx& c, int a, int b) {
-  const Vec3 E = c.d->restPositions[b] - c.d->restPositions[a];
-  for (int i = 0; i < 3; ++i) {
-    ls.pv[ls.np] = E[i];
-    ls.pmap[ls.np].set(Design::restIndex(b, i), 1.0, Design::restIndex(a, i), -1.0);
-    ls.np++;
-  }
-}
-inline void addRadii(LocalStencil& ls, const BuildCtx& c, int v) {
-  for (int i = 0; i < 2; ++i) {
-    ls.pv[ls.np] = c.d->radii[v][i];
-    ls.pmap[ls.np].set(c.d->radiusIndex(v, i), 1.0);
-    ls.np++;
-  }
-}
-
-// Kernels as callables on (x locals of scalar S, p locals of scalar P).
-template <int D, bool TW>
-struct StretchK {
-  energies::StretchConst k;
-  Vec3 off;
-  const Mat32* B;
-  template <class S, class P>
-  S operator()(const S* x, const P* p) const {
-    const V3<S> e = embed<D>(x, off, *B);
-    const auto rest = energies::stretchRest(V3<P>(p[0], p[1], p[2]), p[3], p[4], p[5], p[6], k);
-    return energies::stretchEnergy(e, rest);
-  }
-};
-template <int D, bool TW>
-struct BendK {
-  energies::BendTwistConst k;
-  Vec3 off0, off1;
-  const Mat32* B;
-  template <class S, class P>
-  S operator()(const S* x, const P* p) const {
-    const S th0 = TW ? x[2 * D] : S(0.0);
-    const S th1 = TW ? x[2 * D + 1] : S(0.0);
-    const auto rest = energies::bendTwistRest(V3<P>(p[0], p[1], p[2]), V3<P>(p[3], p[4], p[5]), p[6], p[7], k);
-    if constexpr (ad::IsHessDouble<S>::value && std::is_same_v<P, double>) {
-      // Simulation: each edge's frame depends on its own D + 1 variables;
-      // differentiate it over those and lift into the stencil's variables.
-      constexpr int M = D + (TW ? 1 : 0);
-      const int slots0[4] = {0, 1, D == 3 ? 2 : 2 * D, 2 * D};
-      const int slots1[4] = {D, D + 1, D == 3 ? D + 2 : 2 * D + 1, 2 * D + 1};
-      const EdgeState<S> a = edgeStateLifted<S, M>(x, 0, TW ? 2 * D : -1, off0, k.chartT0, k.chartD0, slots0);
-      const EdgeState<S> b = edgeStateLifted<S, M>(x, D, TW ? 2 * D + 1 : -1, off1, k.chartT1, k.chartD1, slots1);
-      return energies::bendTwistFromStates(a, b, th0, th1, rest, k);
-    } else {
-      const V3<S> e0 = embed<D>(x, off0, *B);
-      const V3<S> e1 = embed<D>(x + D, off1, *B);
-      return energies::bendTwistEnergy(e0, e1, th0, th1, rest, k);
-    }
-  }
-
-  // The state of one edge from its D position variables (at x[first]) and
-  // its twist (x[theta], or none), differentiated over M = D (+1) variables
-  // and lifted to the stencil's variable slots.
-  template <class S, int M>
-  EdgeState<S> edgeStateLifted(const S* x, int first, int theta, const Vec3& off, const Vec3& chartT,
-                                         const Vec3& chartD, const int* slots) const {
-    using Hm = ad::Hess<M, double>;
-    constexpr int N = ad::IsHessDouble<S>::n;
-    Hm w[3];
-    for (int i = 0; i < D; ++i) w[i].makeVariable(x[first + i].v, i);
-    const Hm th = theta >= 0 ? Hm::variable(x[theta].v, D) : Hm(0.0);
-    const EdgeState<Hm> st = edgeState(embed<D>(w, off, *B), th, chartT, chartD);
-    auto liftV = [&](const V3<Hm>& v) {
-      return V3<S>(ad::lift<N, M>(v.x, slots), ad::lift<N, M>(v.y, slots), ad::lift<N, M>(v.z, slots));
-    };
-    return {liftV(st.t), liftV(st.u), liftV(st.m1), liftV(st.m2)};
-  }
-};
-template <int D, bool TW>
-struct ClampK {
-  energies::ClampConst k;
-  Vec3 off;
-  const Mat32* B;
-  template <class S, class P>
-  S operator()(const S* x, const P* p) const {
-    const V3<S> e = embed<D>(x, off, *B);
-    const S th = TW ? x[D] : S(0.0);
-    const auto rest = energies::clampRest(V3<P>(p[0], p[1], p[2]), p[3], p[4], k);
-    return energies::clampEnergy(e, th, rest, k);
-  }
-};
-template <int D, bool TW, int K>
-struct ConnectionK {
-  energies::ConnectionConst<K> k;
-  Vec3 off[K];
-  const Mat32* B;
-  template <class S, class P>
-  S operator()(const S* x, const P* p) const {
-    V3<S> e[K];
-    S th[K];
-    for (int i = 0; i < K; ++i) {
-      e[i] = embed<D>(x + D * i, off[i], *B);
-      th[i] = TW ? x[D * K + i] : S(0.0);
-    }
-    V3<P> E[K];
-    for (int i = 0; i < K; ++i) E[i] = V3<P>(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-    const auto rest = energies::connectionRest<P, K>(E, p + 3 * K, k);
-    return energies::connectionEnergy<S, P, K>(e, th, rest, k);
-  }
-};
-
-template <int D, bool TW>
-struct GravityK {
-  energies::GravityConst k;
-  Vec3 offA, offB;
-  const Mat32* B;
-  template <class S, class P>
-  S operator()(const S* x, const P* p) const {
-    static_assert(std::is_same_v<S, P>, "gravity is evaluated with AD in joint mode only");
-    const V3<S> xa = embed<D>(x, offA, *B);
-    const V3<S> xb = embed<D>(x + D, offB, *B);
-    const V3<S> E(p[0], p[1], p[2]);
-    return energies::gravityEnergy(xa, xb, E, p[3], p[4], p[5], p[6], k);
-  }
-};
-
-template <class K> struct KernelSize;
-template <int D, bool TW> struct KernelSize<StretchK<D, TW>> { static constexpr int nx = D, np = 7; };
-template <int D, bool TW> struct KernelSize<BendK<D, TW>> { static constexpr int nx = 2 * D + (TW ? 2 : 0), np = 8; };
-template <int D, bool TW> struct KernelSize<ClampK<D, TW>> { static constexpr int nx = D + (TW ? 1 : 0), np = 5; };
-template <int D, bool TW> struct KernelSize<GravityK<D, TW>> { static constexpr int nx = 2 * D, np = 7; };
-template <int D, bool TW, int K>
-struct KernelSize<ConnectionK<D, TW, K>> { static constexpr int nx = K * D + (TW ? K : 0), np = 5 * K + 2; };
-
-
 
 // ------------------------------------------------------------------------
 // Joint (u, p) derivatives of one kernel over all its local variables (the x
@@ -981,146 +715,28 @@ void toGlobals(const ad::Hess<N, T>& r, const JointMap& m, int nLocal, bool deri
 namespace rodmesh {
 using namespace detail;
 
-// The one list of energy stencils, in a fixed order (stretch, bend-twist,
-// clamp, connection, then, when asked, gravity): builds each stencil's
-// LocalStencil and kernel and hands them to visit(kernel, stencil, index).
-// Pattern construction, simulation and joint derivatives all walk this list.
-template <int D, bool TW, bool WithGravity, class Visit>
+// Every element of every included block of the term list, in order: builds
+// the element's LocalStencil and kernel and hands them to visit(kernel,
+// stencil, index). Pattern construction, simulation and joint derivatives
+// all walk this list; a block left out still advances the index, so that
+// stencil indices (and the pattern slots kept per stencil) never depend on
+// the filter.
+template <int D, bool TW, class Visit>
 void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
-  const auto& edges = net_.edges();
-  const double E = scene_.material.youngModulus, G = scene_.material.shearModulus();
   int sidx = 0;
-  if (ctx.use(Terms::Stretch))
-    for (const StretchSt& s : stretch_) {
-      LocalStencil ls;
-      const Edge& ed = edges[s.edge];
-      const int pa = addVertex(ls, ctx, ed.a), pb = addVertex(ls, ctx, ed.b);
-      StretchK<D, TW> kern{{E}, addEdgeVars(ls, ctx, ed.a, ed.b, pa, pb), ctx.B};
-      addRestEdge(ls, ctx, ed.a, ed.b);
-      addRadii(ls, ctx, ed.a);
-      addRadii(ls, ctx, ed.b);
-      visit(kern, ls, sidx++);
+  TermBlocks::each([&](auto index) {
+    constexpr int I = decltype(index)::value;
+    using Block = TermBlocks::Block<I>;
+    const auto& elements = std::get<I>(terms_->elements);
+    if (!ctx.terms.has(I)) {
+      sidx += static_cast<int>(elements.size());
+      return;
     }
-  else
-    sidx += static_cast<int>(stretch_.size());
-  if (ctx.use(Terms::BendTwist))
-    for (const BendSt& s : bend_) {
-      LocalStencil ls;
-      const int a = edges[s.e0].a, v = s.vertex, c = edges[s.e1].b;
-      const int pa = addVertex(ls, ctx, a), pv = addVertex(ls, ctx, v), pc = addVertex(ls, ctx, c);
-      BendK<D, TW> kern;
-      kern.k.n0 = net_.edgeNormals()[s.e0];
-      kern.k.n1 = net_.edgeNormals()[s.e1];
-      kern.k.chartT0 = ctx.charts->tangent[s.e0];
-      kern.k.chartD0 = ctx.charts->director[s.e0];
-      kern.k.chartT1 = ctx.charts->tangent[s.e1];
-      kern.k.chartD1 = ctx.charts->director[s.e1];
-      kern.k.youngModulus = E;
-      kern.k.shearModulus = G;
-      kern.k.bend = fx_.has(Effect::Bend);
-      kern.k.twist = TW;
-      kern.B = ctx.B;
-      kern.off0 = addEdgeVars(ls, ctx, a, v, pa, pv);
-      kern.off1 = addEdgeVars(ls, ctx, v, c, pv, pc);
-      if constexpr (TW) {
-        const int t0 = addTheta(ls, ctx, s.e0), t1 = addTheta(ls, ctx, s.e1);
-        addThetaVar(ls, ctx, s.e0, t0);
-        addThetaVar(ls, ctx, s.e1, t1);
-      }
-      addRestEdge(ls, ctx, a, v);
-      addRestEdge(ls, ctx, v, c);
-      addRadii(ls, ctx, v);
-      visit(kern, ls, sidx++);
-    }
-  else
-    sidx += static_cast<int>(bend_.size());
-  if (ctx.use(Terms::Clamp))
-    for (const ClampSt& s : clamp_) {
-      LocalStencil ls;
-      const Edge& ed = edges[s.edge];
-      const int pa = addVertex(ls, ctx, ed.a), pb = addVertex(ls, ctx, ed.b);
-      ClampK<D, TW> kern;
-      kern.k.n = net_.edgeNormals()[s.edge];
-      kern.k.chartT = ctx.charts->tangent[s.edge];
-      kern.k.chartD = ctx.charts->director[s.edge];
-      kern.k.youngModulus = E;
-      kern.k.shearModulus = G;
-      kern.k.bend = fx_.has(Effect::Bend);
-      kern.k.twist = TW;
-      kern.B = ctx.B;
-      kern.off = addEdgeVars(ls, ctx, ed.a, ed.b, pa, pb);
-      if constexpr (TW) addThetaVar(ls, ctx, s.edge, addTheta(ls, ctx, s.edge));
-      addRestEdge(ls, ctx, ed.a, ed.b);
-      addRadii(ls, ctx, s.vertex);
-      visit(kern, ls, sidx++);
-    }
-  else
-    sidx += static_cast<int>(clamp_.size());
-  if (ctx.use(Terms::Connection))
-    for (const ConnSt& s : conn_) {
-      switch (s.k) {
-        case 2: visitConnection<D, TW, 2>(s, ctx, visit, sidx); break;
-        case 3: visitConnection<D, TW, 3>(s, ctx, visit, sidx); break;
-        case 4: visitConnection<D, TW, 4>(s, ctx, visit, sidx); break;
-        case 5: visitConnection<D, TW, 5>(s, ctx, visit, sidx); break;
-        case 6: visitConnection<D, TW, 6>(s, ctx, visit, sidx); break;
-        default: break;
-      }
+    for (const auto& el : elements) {
+      Block::template visit<D, TW>(el, ctx, [&](const auto& kern, const LocalStencil& ls) { visit(kern, ls, sidx); });
       ++sidx;
     }
-  else
-    sidx += static_cast<int>(conn_.size());
-  if constexpr (WithGravity) {
-    if (!fx_.has(Effect::Gravity) || !ctx.use(Terms::Gravity)) return;
-    GravityK<D, TW> kern;
-    kern.k.g = ctx.loadFactor * *scene_.gravity;
-    kern.k.density = scene_.material.density;
-    kern.B = ctx.B;
-    for (const Edge& e : edges) {
-      LocalStencil ls;
-      const int pa = addVertex(ls, ctx, e.a), pb = addVertex(ls, ctx, e.b);
-      kern.offA = addPointVars(ls, ctx, e.a, pa);
-      kern.offB = addPointVars(ls, ctx, e.b, pb);
-      addRestEdge(ls, ctx, e.a, e.b);
-      addRadii(ls, ctx, e.a);
-      addRadii(ls, ctx, e.b);
-      visit(kern, ls, sidx++);
-    }
-  }
-}
-
-template <int D, bool TW, int K, class Visit>
-void PoseSystem::visitConnection(const ConnSt& s, const BuildCtx& ctx, Visit& visit, int sidx) const {
-  const auto& edges = net_.edges();
-  LocalStencil ls;
-  const int pc = addVertex(ls, ctx, s.vertex);
-  int pfar[K];
-  int far[K];
-  for (int i = 0; i < K; ++i) {
-    const Edge& e = edges[s.edges[i]];
-    far[i] = e.a == s.vertex ? e.b : e.a;
-    pfar[i] = addVertex(ls, ctx, far[i]);
-  }
-  ConnectionK<D, TW, K> kern;
-  kern.k.youngModulus = scene_.material.youngModulus;
-  kern.k.shearModulus = scene_.material.shearModulus();
-  kern.k.bend = fx_.has(Effect::Bend);
-  kern.k.twist = TW;
-  kern.B = ctx.B;
-  for (int i = 0; i < K; ++i) {
-    const Edge& e = edges[s.edges[i]];
-    kern.k.n[i] = net_.edgeNormals()[s.edges[i]];
-    kern.k.chartT[i] = ctx.charts->tangent[s.edges[i]];
-    kern.k.chartD[i] = ctx.charts->director[s.edges[i]];
-    const bool out = e.a == s.vertex;
-    kern.off[i] = addEdgeVars(ls, ctx, e.a, e.b, out ? pc : pfar[i], out ? pfar[i] : pc);
-  }
-  if constexpr (TW)
-    for (int i = 0; i < K; ++i) addThetaVar(ls, ctx, s.edges[i], addTheta(ls, ctx, s.edges[i]));
-  for (int i = 0; i < K; ++i) addRestEdge(ls, ctx, edges[s.edges[i]].a, edges[s.edges[i]].b);
-  addRadii(ls, ctx, s.vertex);
-  for (int i = 0; i < K; ++i) addRadii(ls, ctx, far[i]);
-  visit(kern, ls, sidx);
+  });
 }
 
 // Calls f(std::integral_constant<int, D>, std::bool_constant<TW>) for the

@@ -20,16 +20,13 @@ namespace rodmesh {
 
 using namespace detail;
 
-// Gravity and point forces are linear in the positions: they add to the
-// gradient only (no Hessian) in simulation.
+// Terms linear in the unknowns (loads) add to the gradient only: no Hessian
+// is formed for them.
 template <int D, bool TW, class Out>
 void PoseSystem::runSim(const PoseState& s, const Design& d, Terms terms, Out& out) const {
   const std::vector<Vec3> x = positions(s, d);
   const Eigen::VectorXd theta = twists(s.u);
-  const Mat32 B = fx_.planeBasis;
-  const double loadFactor = s.loadFactor;
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, nullptr, &s.charts, loadFactor,
-               terms};
+  const BuildCtx ctx = context(x, theta, d, nullptr, s.charts, s.loadFactor, terms);
   double* hv = out.hessian ? out.hessian->valuePtr() : nullptr;
   auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
     using K = std::decay_t<decltype(kern)>;
@@ -41,8 +38,12 @@ void PoseSystem::runSim(const PoseState& s, const Design& d, Terms terms, Out& o
       out.energy += kern(xs, ps);
       return;
     }
-    if (!hv) {
-      // Forces only: first-order AD.
+    if (!hv || KernelLinear<K>::value) {
+      // Forces only (or a term without Hessian): first-order AD.
+      if (!out.gradient) {
+        out.energy += kern(ls.xv, ls.pv);
+        return;
+      }
       using G = ad::Grad<NX, double>;
       G x[NX];
       for (int i = 0; i < ls.nx; ++i) x[i] = G::variable(ls.xv[i], i);
@@ -61,39 +62,7 @@ void PoseSystem::runSim(const PoseState& s, const Design& d, Terms terms, Out& o
     out.energy += r.v;
     scatterSim<NX>(r, ls, stencilSlots_.data() + stencils_[sidx].offset, out.gradient, hv);
   };
-  forEachStencil<D, TW, false>(ctx, visit);
-
-  // External loads: gravity (lumped edge masses) and point forces, scaled by
-  // the load factor.
-  const auto& edges = net_.edges();
-  auto addLoad = [&](int v, const Vec3& f) {
-    out.energy -= f.dot(x[v]);
-    const int k = vertexDof_[v];
-    if (k < 0 || !out.gradient) return;
-    if constexpr (D == 3) out.gradient->template segment<3>(k) -= f;
-    else out.gradient->template segment<2>(k) -= B.transpose() * f;
-  };
-  if (fx_.has(Effect::Gravity) && ctx.use(Terms::Gravity)) {
-    const Vec3 g = loadFactor * *scene_.gravity;
-    const double rho = scene_.material.density;
-    for (const Edge& e : edges) {
-      const double L = (d.restPositions[e.b] - d.restPositions[e.a]).norm();
-      const double m = 0.5 * L *
-                       (stiffness::massPerLength(rho, d.radii[e.a][0], d.radii[e.a][1]) +
-                        stiffness::massPerLength(rho, d.radii[e.b][0], d.radii[e.b][1]));
-      addLoad(e.a, 0.5 * m * g);
-      addLoad(e.b, 0.5 * m * g);
-    }
-  }
-  if (ctx.use(Terms::Forces)) {
-    for (std::size_t v = 0; v < pointForce_.size(); ++v)
-      if (pointForce_[v].squaredNorm() > 0) addLoad(static_cast<int>(v), loadFactor * pointForce_[v]);
-    if constexpr (TW)
-      for (const auto& [e, m] : edgeMoment_) {
-        out.energy -= loadFactor * m * theta[e];
-        if (out.gradient) (*out.gradient)[thetaDof(e)] -= loadFactor * m;
-      }
-  }
+  forEachStencil<D, TW>(ctx, visit);
 }
 
 template <int D, bool TW, class T>
@@ -101,11 +70,8 @@ void PoseSystem::runJoint(const PoseState& s, const Design& d, Terms terms, cons
                           JointDerivatives& out) const {
   const std::vector<Vec3> x = positions(s, d);
   const Eigen::VectorXd theta = twists(s.u);
-  const Mat32 B = fx_.planeBasis;
-  const double loadFactor = s.loadFactor;
-  const std::vector<double> hc = heldCoefficients(loadFactor);
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc, &s.charts, loadFactor,
-               terms};
+  const std::vector<double> hc = heldCoefficients(s.loadFactor);
+  const BuildCtx ctx = context(x, theta, d, &hc, s.charts, s.loadFactor, terms);
   const bool derivative = v != nullptr;
   double* vals[3] = {out.Huu.valuePtr(), out.Hup.valuePtr(), out.Hpp.valuePtr()};
   constexpr int kSlotMask = (1 << kSlotShift) - 1;
@@ -136,42 +102,7 @@ void PoseSystem::runJoint(const PoseState& s, const Design& d, Terms terms, cons
       if (sl >= 0) vals[sl >> kSlotShift][sl & kSlotMask] += h;
     }
   };
-  forEachStencil<D, TW, true>(ctx, visit);
-
-  // Point forces and twisting moments: linear in the positions and twists.
-  if (ctx.use(Terms::Forces)) {
-    for (std::size_t vi = 0; vi < pointForce_.size(); ++vi) {
-      const Vec3 f = loadFactor * pointForce_[vi];
-      if (f.squaredNorm() == 0) continue;
-      const int k = vertexDof_[vi];
-      if (derivative) {
-        // D_v of the value -f.x; gradients and Hessians of a linear term have
-        // zero directional derivative.
-        if (k >= 0) {
-          const Vec3 dx = D == 3 ? Vec3(v->segment<3>(k)) : Vec3(B * v->segment<2>(k));
-          out.energy -= f.dot(dx);
-        }
-        continue;
-      }
-      out.energy -= f.dot(x[vi]);
-      if (k >= 0) {
-        if constexpr (D == 3) out.gu.template segment<3>(k) -= f;
-        else out.gu.template segment<2>(k) -= B.transpose() * f;
-      } else {
-        // A held vertex follows the design's rest position.
-        for (int j = 0; j < 3; ++j) out.gp[Design::restIndex(static_cast<int>(vi), j)] -= hc[vi] * f[j];
-      }
-    }
-    if constexpr (TW)
-      for (const auto& [e, mom] : edgeMoment_) {
-        if (derivative) {
-          out.energy -= loadFactor * mom * (*v)[thetaDof(e)];
-        } else {
-          out.energy -= loadFactor * mom * theta[e];
-          out.gu[thetaDof(e)] -= loadFactor * mom;
-        }
-      }
-  }
+  forEachStencil<D, TW>(ctx, visit);
 }
 
 // (dF/dp)^T lambda = D_lambda (dE/dp): the design gradient differentiated
@@ -182,10 +113,8 @@ void PoseSystem::runProduct(const PoseState& s, const Design& d, Terms terms, co
                             Eigen::VectorXd& outP, Eigen::VectorXd* outU) const {
   const std::vector<Vec3> x = positions(s, d);
   const Eigen::VectorXd theta = twists(s.u);
-  const Mat32 B = fx_.planeBasis;
   const std::vector<double> hc = heldCoefficients(s.loadFactor);
-  BuildCtx ctx{&x, &theta, &d, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc, &s.charts, s.loadFactor,
-               terms};
+  const BuildCtx ctx = context(x, theta, d, &hc, s.charts, s.loadFactor, terms);
   auto visit = [&](const auto& kern, const LocalStencil& ls, int) {
     using K = std::decay_t<decltype(kern)>;
     constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;
@@ -211,7 +140,7 @@ void PoseSystem::runProduct(const PoseState& s, const Design& d, Terms terms, co
       }
     }
   };
-  forEachStencil<D, TW, true>(ctx, visit);
+  forEachStencil<D, TW>(ctx, visit);
 }
 
 }  // namespace rodmesh

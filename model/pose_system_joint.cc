@@ -51,7 +51,6 @@ void PoseSystem::buildJointPattern() const {
   const int P = d0.numParameters();
   const std::vector<Vec3> x = d0.restPositions;
   const Eigen::VectorXd theta = Eigen::VectorXd::Zero(net_.numEdges());
-  const Mat32 B = fx_.planeBasis;
   const std::vector<double> hc = heldCoefficients(1.0);
   const Charts charts = restCharts(d0);
   struct Globals {
@@ -62,9 +61,8 @@ void PoseSystem::buildJointPattern() const {
   withLayout([&](auto Dc, auto TWc) {
     constexpr int D = decltype(Dc)::value;
     constexpr bool TW = decltype(TWc)::value;
-    BuildCtx ctx{&x, &theta, &d0, &vertexDof_, &B, fx_.planeOrigin, D, TW, nVertexDofs_, &hc, &charts, 1.0,
-                 Terms::All};
-    forEachStencil<D, TW, true>(ctx, [&](const auto&, const LocalStencil& ls, int) {
+    const BuildCtx ctx = context(x, theta, d0, &hc, charts, 1.0, Terms::All);
+    forEachStencil<D, TW>(ctx, [&](const auto&, const LocalStencil& ls, int) {
       JointMap m;
       buildJointMap(ls, ctx, m);
       stencils.push_back({std::vector<bool>(m.isP, m.isP + m.ng), std::vector<int>(m.index, m.index + m.ng)});

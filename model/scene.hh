@@ -50,6 +50,14 @@ struct TwistingMoment {
   double moment = 0.0;
 };
 
+// Extension: a soft contact that keeps vertices a and b at least `distance`
+// [m] apart, pushing with up to `stiffness` [N] (model/terms/contact.hh).
+struct VertexContact {
+  int a = -1, b = -1;
+  double distance = 0.0;
+  double stiffness = 0.0;
+};
+
 struct Pose {
   std::string name;
   double weight = 1.0;
@@ -57,6 +65,7 @@ struct Pose {
   std::vector<ClampedVertex> clamped;
   std::vector<PointForce> forces;
   std::vector<TwistingMoment> twistingMoments;  // extension "twisting_moments"
+  std::vector<VertexContact> contacts;          // extension "contacts"
   std::vector<Vec3> target;  // empty when absent, else one per vertex
 };
 

@@ -21,5 +21,12 @@ template <class S> inline S twisting(double G, const S& rt, const S& rn) {
 }
 // Mass per unit length.
 template <class S> inline S massPerLength(double rho, const S& rt, const S& rn) { return (rho * kPi) * rt * rn; }
+// Mass of an edge of rest length L between ends of radii (rtA, rnA) and
+// (rtB, rnB): L times the mean of the ends' masses per length. Lumped half to
+// each end, it is the mass of the dynamics and the weight under gravity.
+template <class S>
+inline S edgeMass(double rho, const S& L, const S& rtA, const S& rnA, const S& rtB, const S& rnB) {
+  return S(0.5) * L * (massPerLength(rho, rtA, rnA) + massPerLength(rho, rtB, rnB));
+}
 
 }  // namespace rodmesh::stiffness

@@ -48,11 +48,8 @@ Sparse congruence(const Sparse& JT, const Sparse& Alower, const Sparse& J) {
 // The applied loads of a pose at u (N, force residual units): the gradient of
 // its gravity and load terms alone.
 double appliedLoadNorm(const PoseSystem& sys, const PoseState& state, const Design& d) {
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(sys.numDofs()), part;
-  for (const PoseSystem::Terms t : {PoseSystem::Terms::Gravity, PoseSystem::Terms::Forces}) {
-    sys.evaluate(state, d, &part, nullptr, t);
-    g += part;
-  }
+  Eigen::VectorXd g;
+  sys.evaluate(state, d, &g, nullptr, PoseSystem::Terms::loads());
   return sys.forceResidual(g).stableNorm();
 }
 

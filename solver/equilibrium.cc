@@ -42,8 +42,8 @@ std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const
     double mass = 0.0;
     for (const Edge& e : network.edges()) {
       const double L = (design.restPositions[e.b] - design.restPositions[e.a]).norm();
-      mass += 0.5 * L * (stiffness::massPerLength(scene.material.density, design.radii[e.a][0], design.radii[e.a][1]) +
-                         stiffness::massPerLength(scene.material.density, design.radii[e.b][0], design.radii[e.b][1]));
+      mass += stiffness::edgeMass(scene.material.density, L, design.radii[e.a][0], design.radii[e.a][1],
+                                  design.radii[e.b][0], design.radii[e.b][1]);
     }
     total += mass * *scene.gravity;
     magnitude += mass * scene.gravity->norm();

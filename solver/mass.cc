@@ -10,8 +10,7 @@ std::vector<double> lumpedVertexMasses(const RodNetwork& network, const Design& 
     const double len = (design.restPositions[e.b] - design.restPositions[e.a]).norm();
     const Vec2& ra = design.radii[e.a];
     const Vec2& rb = design.radii[e.b];
-    const double me =
-        0.5 * len * (stiffness::massPerLength(density, ra[0], ra[1]) + stiffness::massPerLength(density, rb[0], rb[1]));
+    const double me = stiffness::edgeMass(density, len, ra[0], ra[1], rb[0], rb[1]);
     m[e.a] += 0.5 * me;
     m[e.b] += 0.5 * me;
   }

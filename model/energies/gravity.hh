@@ -16,8 +16,7 @@ struct GravityConst {
 // The edge's mass (design only).
 template <class S>
 S gravityMass(const V3<S>& E, const S& rtA, const S& rnA, const S& rtB, const S& rnB, const GravityConst& c) {
-  return S(0.5) * norm(E) *
-         (stiffness::massPerLength(c.density, rtA, rnA) + stiffness::massPerLength(c.density, rtB, rnB));
+  return stiffness::edgeMass(c.density, norm(E), rtA, rnA, rtB, rnB);
 }
 
 // g . (x_a + x_b) (current positions only).

@@ -733,6 +733,24 @@ TEST(SceneReaderErrors, TwistingMomentMistyped) {
   expectMessage(errorOf(j), "poses[0].twisting_moments[0].moment");
 }
 
+TEST(SceneReaderErrors, ContactJoinsAVertexToItself) {
+  json j = baseScene();
+  j["poses"][0]["contacts"] = json::parse(R"([{"vertices": [2, 2], "distance": 0.01, "stiffness": 1}])");
+  expectMessage(errorOf(j), "poses[0].contacts[0].vertices", {"2"});
+}
+
+TEST(SceneReaderErrors, ContactVertexOutOfRange) {
+  json j = baseScene();
+  j["poses"][0]["contacts"] = json::parse(R"([{"vertices": [1, 40], "distance": 0.01, "stiffness": 1}])");
+  expectMessage(errorOf(j), "poses[0].contacts[0].vertices[1]", {"40"});
+}
+
+TEST(SceneReaderErrors, ContactWithoutStiffness) {
+  json j = baseScene();
+  j["poses"][0]["contacts"] = json::parse(R"([{"vertices": [1, 3], "distance": 0.01, "stiffness": 0}])");
+  expectMessage(errorOf(j), "poses[0].contacts[0].stiffness", {"0"});
+}
+
 // ================================================================ valid scenes
 
 TEST(SceneReader, ParsesAValidSceneWithTheRightValues) {
@@ -843,11 +861,14 @@ TEST(SceneReader, RoundTripsThroughSceneToJson) {
      "clamped": [{"vertex": 0}], "forces": [{"vertex": 3, "force": [0.1, -0.2, 0.3]}],
      "target": [[0,0,0],[0.01,0,0],[0.02,0,0],[0.03,0,0],[0.03,0.01,0],[0.03,0.02,0.5]]},
     {"forces": [{"vertex": 2, "force": [0, 0, 1e-3]}], "clamped": [{"vertex": 5}],
-     "twisting_moments": [{"vertex": 0, "moment": -0.002}]}
+     "twisting_moments": [{"vertex": 0, "moment": -0.002}],
+     "contacts": [{"vertices": [1, 4], "distance": 0.004, "stiffness": 0.25}]}
   ])");
   j["design"] = json::parse(R"({"parameters": ["rest_shape"], "radius_bounds": [0.0005, 0.004],
                                 "control_points_per_rod": 3})");
   const Scene a = parseScene(j.dump(), kFile);
+  ASSERT_EQ(a.poses[1].contacts.size(), 1u);
+  EXPECT_EQ(a.poses[1].contacts[0].b, 4);
   const std::string text = sceneToJson(a);
   const Scene b = parseScene(text, "roundtrip.json");
   EXPECT_TRUE(lastSceneWarnings().empty());
@@ -886,6 +907,13 @@ TEST(SceneReader, RoundTripsThroughSceneToJson) {
     for (std::size_t i = 0; i < x.twistingMoments.size(); ++i) {
       EXPECT_EQ(y.twistingMoments[i].vertex, x.twistingMoments[i].vertex);
       EXPECT_EQ(y.twistingMoments[i].moment, x.twistingMoments[i].moment);
+    }
+    ASSERT_EQ(y.contacts.size(), x.contacts.size());
+    for (std::size_t i = 0; i < x.contacts.size(); ++i) {
+      EXPECT_EQ(y.contacts[i].a, x.contacts[i].a);
+      EXPECT_EQ(y.contacts[i].b, x.contacts[i].b);
+      EXPECT_EQ(y.contacts[i].distance, x.contacts[i].distance);
+      EXPECT_EQ(y.contacts[i].stiffness, x.contacts[i].stiffness);
     }
     EXPECT_EQ(y.target, x.target);
   }

@@ -58,7 +58,7 @@ class HardConnection : public testing::TestWithParam<Hard> {
     model_ = std::make_unique<SceneModel>(scene_);
     design_ = Design::fromScene(scene_);
     const PoseSystem& sys = model_->pose(0);
-    ASSERT_EQ(sys.numConnectionTerms(), 1);
+    ASSERT_EQ(sys.termCount(PoseSystem::termKindIndex("connection")), 1);
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> U(-1.0, 1.0);
     std::vector<Vec3> x = design_.restPositions;
@@ -96,7 +96,7 @@ class HardConnection : public testing::TestWithParam<Hard> {
     s.u = u;
     return s;
   }
-  static constexpr PoseSystem::Terms kTerms = PoseSystem::Terms::Connection;
+  const PoseSystem::Terms kTerms = PoseSystem::Terms::named("connection");
 
   Scene scene_;
   std::unique_ptr<SceneModel> model_;
@@ -193,7 +193,7 @@ TEST(ConnectionInvariance, RigidRotationCostsNothing) {
       theta[e] = std::atan2(ref.cross(want).dot(t), ref.dot(want));
     }
     state.u = sys.dofsFrom(x, theta);
-    const double E = sys.energy(state, d, PoseSystem::Terms::Connection);
+    const double E = sys.energy(state, d, PoseSystem::Terms::named("connection"));
     EXPECT_LT(std::abs(E), 1e-20) << degrees << " degrees";
   }
 }

@@ -1,7 +1,9 @@
 // Taylor tests of every energy term's derivatives (tests/testutil/taylor.hh):
 // gradient, Hessian, design gradient, mixed and design Hessians, and the
 // third-order directional derivative, at random bent, twisted, anisotropic
-// states, in 3D (with and without twist) and with planar unknowns.
+// states, in 3D (with and without twist) and with planar unknowns. The kinds
+// of term come from the term list (PoseSystem::termKinds): a new block is
+// tested here as soon as it is registered and a test scene has an element.
 #include "model/pose_system.hh"
 #include "solver/equilibrium.hh"
 #include "tests/testutil/scenes.hh"
@@ -51,7 +53,9 @@ Scene makeNetwork(bool planar) {
 
 // A curved rod of 7 vertices (a helix arc, or a planar arc), anisotropic
 // varying radii, clamped at vertex 0, fixed at vertex 3 of a second short rod
-// sharing no vertex, with point forces, a twisting moment (3D) and gravity.
+// sharing no vertex, with point forces, a twisting moment (3D), gravity and a
+// contact between the two rods, pressed (|x_a - x_b| about 0.7 of its
+// distance at rest).
 Scene makeScene(Kind kind) {
   Scene s;
   s.sourcePath = "<derivatives>";
@@ -83,6 +87,8 @@ Scene makeScene(Kind kind) {
   p.forces.push_back({n - 1, kind == Kind::Planar ? Vec3(0.01, -0.02, 0.0) : Vec3(0.01, -0.02, 0.03)});
   p.forces.push_back({n, kind == Kind::Planar ? Vec3(-0.01, 0.0, 0.0) : Vec3(-0.01, 0.0, 0.02)});
   if (kind == Kind::Spatial) p.twistingMoments.push_back({n - 1, 1e-4});
+  const int ca = 2, cb = n + 1;
+  p.contacts.push_back({ca, cb, 1.4 * (s.vertices[cb] - s.vertices[ca]).norm(), 0.05});
   s.poses.push_back(p);
   if (kind == Kind::SpatialNoTwist)
     s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Gravity};
@@ -150,17 +156,19 @@ Eigen::MatrixXd jointHessian(const JointDerivatives& j, int n, int P) {
 
 Eigen::VectorXd flatten(const Eigen::MatrixXd& M) { return Eigen::Map<const Eigen::VectorXd>(M.data(), M.size()); }
 
+// A scene kind and one kind of term (-1: all terms together).
 struct Case {
   Kind kind;
-  Terms term;
+  int termIndex = -1;
+  Terms terms() const { return termIndex < 0 ? Terms::All : Terms::only(termIndex); }
+  TermKind term() const { return termIndex < 0 ? TermKind{"all", false, false, true} : PoseSystem::termKinds()[termIndex]; }
 };
 
 std::string caseName(const testing::TestParamInfo<Case>& info) {
-  static const char* names[] = {"All", "Stretch", "BendTwist", "Clamp", "Gravity", "Forces", "Connection"};
-  std::string k = kindName(info.param.kind);
+  std::string k = std::string(kindName(info.param.kind)) + "_" + info.param.term().name;
   for (char& c : k)
     if (c == '-') c = '_';
-  return k + "_" + names[static_cast<int>(info.param.term)];
+  return k;
 }
 
 class TermDerivatives : public testing::TestWithParam<Case> {};
@@ -174,13 +182,13 @@ TEST_P(TermDerivatives, GradientAndHessian) {
   const Design& d = f->design;
   Eigen::VectorXd g;
   Eigen::SparseMatrix<double> Hs;
-  const double E = sys.evaluate(f->at(f->u), d, &g, &Hs, c.term);
+  const double E = sys.evaluate(f->at(f->u), d, &g, &Hs, c.terms());
   const Eigen::MatrixXd H = Eigen::MatrixXd(Hs).selfadjointView<Eigen::Lower>();
 
-  auto energy = [&](const Eigen::VectorXd& u) { return sys.energy(f->at(u), d, c.term); };
+  auto energy = [&](const Eigen::VectorXd& u) { return sys.energy(f->at(u), d, c.terms()); };
   auto gradient = [&](const Eigen::VectorXd& u) {
     Eigen::VectorXd gg;
-    sys.evaluate(f->at(u), d, &gg, nullptr, c.term);
+    sys.evaluate(f->at(u), d, &gg, nullptr, c.terms());
     return gg;
   };
   EXPECT_NEAR(energy(f->u), E, 1e-12 * std::abs(E) + 1e-300);
@@ -189,8 +197,7 @@ TEST_P(TermDerivatives, GradientAndHessian) {
       [&](const Eigen::VectorXd& u) { return Eigen::VectorXd::Constant(1, energy(u)); }, f->u,
       [&](int j) { return Eigen::VectorXd::Constant(1, g[j]); });
 
-  const bool linear = c.term == Terms::Gravity || c.term == Terms::Forces;
-  if (linear) {
+  if (c.term().linear) {
     EXPECT_EQ(H.norm(), 0.0) << "a load term linear in the positions has no Hessian";
     return;
   }
@@ -212,7 +219,7 @@ TEST_P(TermDerivatives, DesignDerivatives) {
     d.fromVector(p);
     return d;
   };
-  const JointDerivatives j = sys.joint(state, f->design, c.term);
+  const JointDerivatives j = sys.joint(state, f->design, c.terms());
   const Eigen::MatrixXd Hup = dense(j.Hup, false);
   const Eigen::MatrixXd Hpp = dense(j.Hpp, true);
   const Eigen::MatrixXd Huu = dense(j.Huu, false);
@@ -224,7 +231,7 @@ TEST_P(TermDerivatives, DesignDerivatives) {
   // Both code paths (simulation and joint) agree on value, gradient, Hessian.
   Eigen::VectorXd g;
   Eigen::SparseMatrix<double> Hs;
-  const double E = sys.evaluate(state, f->design, &g, &Hs, c.term);
+  const double E = sys.evaluate(state, f->design, &g, &Hs, c.terms());
   EXPECT_NEAR(j.energy, E, 1e-12 * std::abs(E) + 1e-300);
   EXPECT_LE((j.gu - g).norm(), 1e-12 * (g.norm() + 1e-300));
   const Eigen::MatrixXd Hsim = Eigen::MatrixXd(Hs).selfadjointView<Eigen::Lower>();
@@ -233,30 +240,29 @@ TEST_P(TermDerivatives, DesignDerivatives) {
   // The first-order product (dF/dp)^T lambda and (dF/du) lambda match the
   // Hessian blocks.
   Eigen::VectorXd Hl;
-  const Eigen::VectorXd prod = sys.designForceProduct(state, f->design, f->du, &Hl, c.term);
+  const Eigen::VectorXd prod = sys.designForceProduct(state, f->design, f->du, &Hl, c.terms());
   EXPECT_LE((prod - Hup.transpose() * f->du).norm(), 1e-10 * ((Hup.transpose() * f->du).norm() + 1e-300));
   EXPECT_LE((Hl - Huu * f->du).norm(), 1e-10 * ((Huu * f->du).norm() + 1e-300));
-  if (c.term == Terms::Forces) {
-    // Point loads do not depend on the design, except through the positions
-    // of held vertices, which follow the rest shape: dE/dp is -f at those.
-    EXPECT_EQ(Hup.norm(), 0.0) << "point loads do not couple unknowns and design";
-    return;  // no force acts on a held vertex here: dE/dp = 0, nothing more to check
+  if (!c.term().design) {
+    // Point loads, moments and contacts do not depend on the design, except
+    // through the positions of held vertices, which follow the rest shape.
+    EXPECT_EQ(Hup.norm(), 0.0) << c.term().name << " does not couple unknowns and design";
+    return;  // none acts on a held vertex here: dE/dp = 0, nothing more to check
   }
   // dE/dp.
-  auto energyP = [&](const Eigen::VectorXd& p) { return sys.energy(state, designOf(p), c.term); };
+  auto energyP = [&](const Eigen::VectorXd& p) { return sys.energy(state, designOf(p), c.terms()); };
   EXPECT_TAYLOR_ORDER(taylorTestScalar(energyP, p0, f->dp, j.gp.dot(f->dp)), kMinOrder);
   // d(grad_u E)/dp = H_up.
   auto gradU = [&](const Eigen::VectorXd& p) {
     Eigen::VectorXd gg;
-    sys.evaluate(state, designOf(p), &gg, nullptr, c.term);
+    sys.evaluate(state, designOf(p), &gg, nullptr, c.terms());
     return gg;
   };
   EXPECT_TAYLOR_ORDER(taylorTest(gradU, p0, f->dp, Hup * f->dp), kMinOrder);
   // d(grad_p E)/dp = H_pp and d(grad_p E)/du = H_up^T.
-  auto gradP = [&](const Eigen::VectorXd& p) { return sys.joint(state, designOf(p), c.term).gp; };
+  auto gradP = [&](const Eigen::VectorXd& p) { return sys.joint(state, designOf(p), c.terms()).gp; };
   EXPECT_TAYLOR_ORDER(taylorTest(gradP, p0, f->dp, Hpp * f->dp), kMinOrder);
-  if (c.term == Terms::Forces) return;  // dE/dp does not depend on u: nothing to check
-  auto gradPu = [&](const Eigen::VectorXd& u) { return sys.joint(f->at(u), f->design, c.term).gp; };
+  auto gradPu = [&](const Eigen::VectorXd& u) { return sys.joint(f->at(u), f->design, c.terms()).gp; };
   EXPECT_TAYLOR_ORDER(taylorTest(gradPu, f->u, f->du, Hup.transpose() * f->du), kMinOrder);
 }
 
@@ -266,8 +272,8 @@ TEST_P(TermDerivatives, ThirdOrderDirectional) {
   const PoseSystem& sys = f->sys();
   const int n = sys.numDofs(), P = f->design.numParameters();
   const Eigen::VectorXd& v = f->du;
-  const JointDerivatives j = sys.joint(f->at(f->u), f->design, c.term);
-  const JointDerivatives dj = sys.jointDirectional(f->at(f->u), f->design, v, c.term);
+  const JointDerivatives j = sys.joint(f->at(f->u), f->design, c.terms());
+  const JointDerivatives dj = sys.jointDirectional(f->at(f->u), f->design, v, c.terms());
   // D_v of the energy and of the gradient are the gradient and Hessian along v.
   EXPECT_NEAR(dj.energy, j.gu.dot(v), 1e-11 * (std::abs(j.gu.dot(v)) + j.gu.norm() * v.norm()));
   const Eigen::MatrixXd H = jointHessian(j, n, P);
@@ -278,23 +284,28 @@ TEST_P(TermDerivatives, ThirdOrderDirectional) {
   EXPECT_LE((dj.gp - Hv.tail(P)).norm(), 1e-10 * (Hv.norm() + 1e-300));
   // D_v of the joint Hessian against the Taylor remainder of the Hessian.
   const Eigen::VectorXd dH = flatten(jointHessian(dj, n, P));
-  if (c.term == Terms::Forces) {
-    EXPECT_EQ(dH.norm(), 0.0) << "point loads are linear: their third derivatives vanish";
+  if (c.term().linear && !c.term().design) {
+    EXPECT_EQ(dH.norm(), 0.0) << c.term().name << " is linear and design-free: its third derivatives vanish";
     return;
   }
   auto hessOf = [&](const Eigen::VectorXd& u) {
-    return flatten(jointHessian(sys.joint(f->at(u), f->design, c.term), n, P));
+    return flatten(jointHessian(sys.joint(f->at(u), f->design, c.terms()), n, P));
   };
   EXPECT_TAYLOR_ORDER(taylorTest(hessOf, f->u, v, dH), kMinOrder);
 }
 
+constexpr Kind kAllKinds[] = {Kind::Spatial, Kind::Planar, Kind::SpatialNoTwist, Kind::Network, Kind::NetworkPlanar};
+
+// Every scene kind with all terms, and with each registered kind of term it
+// has elements of.
 std::vector<Case> allCases() {
   std::vector<Case> cs;
-  for (Kind k : {Kind::Spatial, Kind::Planar, Kind::SpatialNoTwist})
-    for (Terms t : {Terms::All, Terms::Stretch, Terms::BendTwist, Terms::Clamp, Terms::Gravity, Terms::Forces})
-      cs.push_back({k, t});
-  for (Kind k : {Kind::Network, Kind::NetworkPlanar})
-    for (Terms t : {Terms::All, Terms::Connection}) cs.push_back({k, t});
+  for (Kind k : kAllKinds) {
+    cs.push_back({k, -1});
+    auto f = makeFixture(k, 1);
+    for (int t = 0; t < static_cast<int>(PoseSystem::termKinds().size()); ++t)
+      if (f->sys().termCount(t) > 0) cs.push_back({k, t});
+  }
   return cs;
 }
 
@@ -313,25 +324,57 @@ TEST(TaylorHelper, DetectsWrongDerivative) {
   EXPECT_LT(bad.order, 1.2) << bad.table();
 }
 
-// The stencils the scene is meant to exercise are all there.
+// Every registered kind of term has elements in some test scene (so that
+// the cases above test it), and the scenes have the layouts they are meant to.
 TEST(TermDerivatives, ScenesExerciseEveryTerm) {
+  const std::vector<TermKind>& kinds = PoseSystem::termKinds();
+  std::vector<int> total(kinds.size(), 0);
+  for (Kind k : kAllKinds) {
+    auto f = makeFixture(k, 1);
+    for (std::size_t t = 0; t < kinds.size(); ++t) total[t] += f->sys().termCount(static_cast<int>(t));
+  }
+  for (std::size_t t = 0; t < kinds.size(); ++t) EXPECT_GT(total[t], 0) << kinds[t].name << " is tested nowhere";
+  EXPECT_EQ(makeFixture(Kind::Network, 1)->sys().termCount(PoseSystem::termKindIndex("connection")), 2);
+  EXPECT_EQ(makeFixture(Kind::Spatial, 1)->sys().termCount(PoseSystem::termKindIndex("moment")), 1);
   auto f = makeFixture(Kind::Spatial, 1);
-  EXPECT_GT(f->sys().numStretch(), 0);
-  EXPECT_GT(f->sys().numBendTwist(), 0);
-  EXPECT_GT(f->sys().numClamp(), 0);
   EXPECT_TRUE(f->sys().hasTwist());
   auto p = makeFixture(Kind::Planar, 1);
   EXPECT_EQ(p->sys().dofsPerVertex(), 2);
   EXPECT_FALSE(p->sys().hasTwist());
-  auto net = makeFixture(Kind::Network, 1);
-  EXPECT_EQ(net->sys().numConnectionTerms(), 2);
-  EXPECT_TRUE(net->sys().hasTwist());
   auto netp = makeFixture(Kind::NetworkPlanar, 1);
-  EXPECT_EQ(netp->sys().numConnectionTerms(), 2);
   EXPECT_EQ(netp->sys().dofsPerVertex(), 2);
   auto q = makeFixture(Kind::SpatialNoTwist, 1);
   EXPECT_EQ(q->sys().dofsPerVertex(), 3);
   EXPECT_FALSE(q->sys().hasTwist());
+}
+
+// Names, filters and the split of the energy by kind.
+TEST(TermDerivatives, KindsAreNamedAndSumToTheEnergy) {
+  const std::vector<TermKind>& kinds = PoseSystem::termKinds();
+  for (std::size_t t = 0; t < kinds.size(); ++t) {
+    EXPECT_EQ(PoseSystem::termKindIndex(kinds[t].name), static_cast<int>(t));
+    EXPECT_TRUE(Terms::named(kinds[t].name) == Terms::only(static_cast<int>(t)));
+    for (std::size_t u = 0; u < t; ++u) EXPECT_STRNE(kinds[t].name, kinds[u].name);
+  }
+  EXPECT_THROW(Terms::named("friction"), std::invalid_argument);
+  EXPECT_EQ(PoseSystem::termKindIndex("friction"), -1);
+  EXPECT_TRUE(Terms::loads().has(PoseSystem::termKindIndex("gravity")));
+  EXPECT_TRUE(Terms::loads().has(PoseSystem::termKindIndex("point_force")));
+  EXPECT_FALSE(Terms::loads().has(PoseSystem::termKindIndex("stretch")));
+  for (Kind k : kAllKinds) {
+    auto f = makeFixture(k, 5);
+    const PoseState st = f->at(f->u);
+    Eigen::VectorXd g, gk;
+    const double E = f->sys().evaluate(st, f->design, &g, nullptr);
+    double sum = 0.0;
+    Eigen::VectorXd gsum = Eigen::VectorXd::Zero(g.size());
+    for (std::size_t t = 0; t < kinds.size(); ++t) {
+      sum += f->sys().evaluate(st, f->design, &gk, nullptr, Terms::only(static_cast<int>(t)));
+      gsum += gk;
+    }
+    EXPECT_NEAR(sum, E, 1e-12 * std::abs(E)) << kindName(k);
+    EXPECT_LE((gsum - g).norm(), 1e-12 * g.norm()) << kindName(k);
+  }
 }
 
 }  // namespace

@@ -89,7 +89,7 @@ class ImmutableModel : public ::testing::Test {
     design_ = Design::fromScene(scene_);
     const PoseSystem& sys = model_->pose(0);
     ASSERT_TRUE(sys.hasTwist());
-    ASSERT_GT(sys.numConnectionTerms(), 0);
+    ASSERT_GT(sys.termCount(PoseSystem::termKindIndex("connection")), 0);
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> U(-1.0, 1.0);
     auto perturbed = [&](double scale) {

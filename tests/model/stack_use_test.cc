@@ -72,7 +72,7 @@ TEST(StackUse, SixValentConnectionEvaluations) {
   SceneModel model(scene);
   const Design d = Design::fromScene(scene);
   const PoseSystem& sys = model.pose(0);
-  ASSERT_EQ(sys.numConnectionTerms(), 1);
+  ASSERT_EQ(sys.termCount(PoseSystem::termKindIndex("connection")), 1);
   PoseState u = sys.restState(d);
   u.loadFactor = 1.0;
   for (int i = 0; i < u.u.size(); ++i) u.u[i] += 1e-4 * std::sin(1.7 * i);
