@@ -241,6 +241,14 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       wr.history = history;
       wr.iterations = history.empty() ? 0 : history.back().iteration;
       wr.timeSeconds = history.empty() ? 0.0 : history.back().elapsed;
+      // Objective evaluations of the iterations so far: an iterate's count
+      // runs within its phase, so a phase's total is its last iterate's.
+      for (std::size_t i = 0; i < history.size(); ++i) {
+        const DesignIterate& it = history[i];
+        const bool phaseEnds = i + 1 == history.size() || history[i + 1].level != it.level ||
+                               history[i + 1].phase != it.phase || history[i + 1].evaluations < it.evaluations;
+        if (phaseEnds) wr.evaluations += it.evaluations;
+      }
       wr.peakMemoryBytes = peakResidentMemory();
       if (initial) {
         wr.initialRms = initial->rms;

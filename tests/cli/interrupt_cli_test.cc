@@ -314,6 +314,9 @@ class WatchdogCliTest : public InterruptCliTest {
     EXPECT_NE(a.optimize->message.find("did not stop within"), std::string::npos) << a.optimize->message;
     ASSERT_TRUE(a.history.has_value());
     EXPECT_FALSE(a.history->iteration.empty());
+    // The objective evaluations of the iterations it had made (the first
+    // Hessian, at least, was evaluated at an evaluated point).
+    EXPECT_GT(a.optimize->evaluations, 0);
     ASSERT_EQ(a.poses.size(), 2u);
     for (const ArchivePose& p : a.poses) {
       EXPECT_EQ(p.status, "converged") << "the archived design was re-solved from rest";
