@@ -53,7 +53,7 @@ std::string TrustRegionOptions::isValid() const {
 
 TrustRegionStep steihaugStep(const std::function<VectorXd(const VectorXd&)>& hessian, const VectorXd& x,
                              const VectorXd& g, const VectorXd& lower, const VectorXd& upper, std::vector<char> held,
-                             double radius, double tolerance, int maxIterations) {
+                             double radius, double tolerance, int maxIterations, const std::function<bool()>& stop) {
   const Eigen::Index n = x.size();
   TrustRegionStep out;
   VectorXd& s = out.s;
@@ -69,6 +69,12 @@ TrustRegionStep steihaugStep(const std::function<VectorXd(const VectorXd&)>& hes
   VectorXd r = residual(), p = r;
   double rr = r.squaredNorm();
   while (std::sqrt(rr) > tolerance && out.cgIterations < maxIterations) {
+    // A product can cost seconds (a solve per pose): limits are polled
+    // before each, and a stopped CG returns the step it has.
+    if (stop && stop()) {
+      out.stopped = true;
+      break;
+    }
     const VectorXd Hp = hessian(p);
     ++out.cgIterations;
     const double kappa = p.dot(Hp);
@@ -225,13 +231,21 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
     const double pgNow = pg.norm();
     const double eta = std::min(opt.forcing, pg0 > 0 ? std::sqrt(pgNow / pg0) : opt.forcing);
     TrustRegionStep step =
-        steihaugStep(problem.hessian, x, g, lower, upper, held, radius, eta * pgNow, opt.maxCgIterations);
+        steihaugStep(problem.hessian, x, g, lower, upper, held, radius, eta * pgNow, opt.maxCgIterations, limit);
+    if (step.stopped) {
+      res.cgIterations += step.cgIterations;
+      return finish(stop);
+    }
     int products = step.cgIterations;
     const bool negative = step.negativeCurvature;
     bool gaussNewton = false;
     if (negative && opt.gaussNewtonOnNegativeCurvature && problem.gaussNewton) {
       step = steihaugStep(problem.gaussNewton, x, g, lower, upper, held, radius, eta * pgNow,
-                          std::max(1, opt.maxCgIterations - products));
+                          std::max(1, opt.maxCgIterations - products), limit);
+      if (step.stopped) {
+        res.cgIterations += products + step.cgIterations;
+        return finish(stop);
+      }
       products += step.cgIterations;
       gaussNewton = true;
     }

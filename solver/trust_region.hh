@@ -35,7 +35,7 @@
 // |Pg|_inf <= gradientTolerance x scale (scale = gradientScale, or
 // |Pg(x0)|_inf), the relative decrease over stallWindow iterations,
 // maxIterations (accepted steps), timeLimit and stopRequested (polled before
-// every evaluation), Stalled when D falls below minRadius, NumericalFailure
+// every evaluation and every Hessian product of CG), Stalled when D falls below minRadius, NumericalFailure
 // when x0 cannot be evaluated. The result is the last accepted point, which
 // is the best point evaluated (steps are accepted only when f falls).
 #pragma once
@@ -126,10 +126,11 @@ struct TrustRegionStep {
   double predicted = 0;           // m(0) - m(s) >= 0
   int cgIterations = 0;
   bool reachedRadius = false, negativeCurvature = false;
+  bool stopped = false;  // `stop` answered true before a product
 };
 TrustRegionStep steihaugStep(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& hessian,
                              const Eigen::VectorXd& x, const Eigen::VectorXd& g, const Eigen::VectorXd& lower,
                              const Eigen::VectorXd& upper, std::vector<char> held, double radius, double tolerance,
-                             int maxIterations);
+                             int maxIterations, const std::function<bool()>& stop = {});
 
 }  // namespace rodmesh

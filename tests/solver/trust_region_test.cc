@@ -276,5 +276,47 @@ TEST(SteihaugStep, StopsAtTheRadiusAndAtTheBox) {
   EXPECT_NEAR(s.s[1], 1.0, 1e-14);
 }
 
+// A stop request is answered between two Hessian products of CG, not only
+// between evaluations: in the optimizer a product costs a solve per pose, and
+// one CG loop of hundreds of them must not run past a time limit.
+TEST(TrustRegion, StopIsAnsweredInsideTheCgLoop) {
+  const int n = 200;
+  // An ill-conditioned quadratic: CG needs many products for one step.
+  VectorXd d(n);
+  for (int i = 0; i < n; ++i) d[i] = std::pow(10.0, 6.0 * i / (n - 1));
+  int products = 0;
+  bool stopAfterFive = false;
+  TrustRegionProblem p;
+  p.value = [&](const VectorXd& x, double& v) {
+    v = 0.5 * x.dot(d.cwiseProduct(x)) - x.sum();
+    return true;
+  };
+  p.prepare = [&](const VectorXd& x, VectorXd& g) {
+    g = d.cwiseProduct(x) - VectorXd::Ones(n);
+    return true;
+  };
+  p.hessian = [&](const VectorXd& v) -> VectorXd {
+    ++products;
+    return d.cwiseProduct(v);
+  };
+  TrustRegionOptions o;
+  o.initialRadius = 1e6;
+  o.forcing = 1e-12;
+  TrustRegionCallbacks cb;
+  cb.stopRequested = [&] { return stopAfterFive && products >= 5; };
+  const VectorXd lo = VectorXd::Constant(n, -kInf), hi = VectorXd::Constant(n, kInf);
+  // Without a stop, the first step takes more than 50 products.
+  const TrustRegionResult full = minimizeTrustRegion(p, VectorXd::Zero(n), lo, hi, o);
+  ASSERT_GT(full.history.size(), 1u);
+  ASSERT_GT(full.history[1].cgIterations, 50);
+  products = 0;
+  stopAfterFive = true;
+  const TrustRegionResult r = minimizeTrustRegion(p, VectorXd::Zero(n), lo, hi, o, cb);
+  EXPECT_EQ(r.status.outcome, Outcome::Interrupted) << r.status.message;
+  EXPECT_EQ(products, 5);
+  EXPECT_EQ(r.cgIterations, 5);
+  EXPECT_EQ(r.x, VectorXd::Zero(n)) << "the result is the last accepted point";
+}
+
 }  // namespace
 }  // namespace rodmesh
