@@ -31,19 +31,13 @@ void PoseSystem::runSim(const PoseState& s, const Design& d, Terms terms, Out& o
   auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
     using K = std::decay_t<decltype(kern)>;
     constexpr int NX = KernelSize<K>::nx;
-    if (!out.gradient && !hv) {
-      double xs[kMaxLocal], ps[kMaxLocal];
-      std::copy(ls.xv, ls.xv + ls.nx, xs);
-      std::copy(ls.pv, ls.pv + ls.np, ps);
-      out.energy += kern(xs, ps);
+    constexpr bool linear = KernelLinear<K>::value;
+    if (!out.gradient && (!hv || linear)) {
+      out.energy += kern(ls.xv, ls.pv);
       return;
     }
-    if (!hv || KernelLinear<K>::value) {
+    if (!hv || linear) {
       // Forces only (or a term without Hessian): first-order AD.
-      if (!out.gradient) {
-        out.energy += kern(ls.xv, ls.pv);
-        return;
-      }
       using G = ad::Grad<NX, double>;
       G x[NX];
       for (int i = 0; i < ls.nx; ++i) x[i] = G::variable(ls.xv[i], i);

@@ -5,7 +5,9 @@
 // a force of k (1 - r / d)^2 [N] pushing them apart, k at coincidence. C2
 // across r = d (energy, force and stiffness vanish there), so Newton and the
 // exact Hessians see a smooth energy; its third derivative jumps at r = d.
-// This header and one line in model/terms/term_list.hh are the whole term.
+// This header and one line in model/terms/term_list.hh are the whole energy
+// term; its data come from the scene (Pose::contacts, read and written by
+// io/scene_reader.cc and io/scene_writer.cc).
 #pragma once
 
 #include "model/terms/stencil.hh"
