@@ -42,6 +42,13 @@ struct SandOptions {
   // the scaled constraints (Ipopt's theta_max_fact, default 1e4): steps that
   // leave equilibrium further are cut by the filter line search.
   double retryThetaMaxFact = 1e-2;
+  // The retry of a diverged phase is run by the reduced method's Newton-CG
+  // phase solver (every iterate an equilibrium, exact Hessian products)
+  // instead of Ipopt held near equilibrium by retryThetaMaxFact: on targets
+  // no rod mesh reaches, Ipopt's rest-shape iterates leave equilibrium by
+  // thousands of newtons also when held (docs/optimization.md, "SAND phases
+  // that diverge").
+  bool newtonRetry = true;
   // Relative tolerance of a phase that a finer phase continues (radius
   // levels before the last phase), or --tol if looser.
   double handOverTolerance = 1e-3;

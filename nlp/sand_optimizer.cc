@@ -303,9 +303,14 @@ class SandPhaseSolver : public PhaseSolver {
     warmupOptions_.phaseWindow = std::max(1, so.warmupWindow);
     warmupOptions_.phaseRelativeDecrease = so.warmupRelativeDecrease;
     warmup_ = makeReducedPhaseSolver(model, space, warmupOptions_);
+    if (so.newtonRetry) retry_ = makeNewtonPhaseSolver(model, space, opt_);
   }
 
   bool iteratesAreEquilibria() const override { return false; }
+  std::string divergedRetry() const override {
+    return retry_ ? "run again by the reduced Newton-CG method (every iterate an equilibrium)"
+                  : "run again by Ipopt held near equilibrium";
+  }
   std::string prepare(const std::vector<PoseState>& states, double f0) override;
   PhaseResult solvePhase(const PhaseTask& task, PhaseContext& ctx) override;
   void phaseEnded(int kept) override {
@@ -334,6 +339,7 @@ class SandPhaseSolver : public PhaseSolver {
   int finalCandidate_ = -1;
   DesignOptimizerOptions warmupOptions_;    // the first phase's BFGS start
   std::unique_ptr<PhaseSolver> warmup_;
+  std::unique_ptr<PhaseSolver> retry_;      // the diverged phases' retry (SandOptions::newtonRetry)
   // Ipopt's part of a phase, from `task`'s design.
   PhaseResult solveWithIpopt(const PhaseTask& task, PhaseContext& ctx);
 };
@@ -403,6 +409,10 @@ std::string SandPhaseSolver::prepare(const std::vector<PoseState>& states, doubl
 }
 
 PhaseResult SandPhaseSolver::solvePhase(const PhaseTask& task, PhaseContext& ctx) {
+  if (task.diverged && retry_) {
+    finalCandidate_ = -1;  // no Ipopt multipliers for the next phase
+    return retry_->solvePhase(task, ctx);
+  }
   if (task.index > 0 || task.attempt > 0 || so_.warmupIterations <= 0) return solveWithIpopt(task, ctx);
   // The first phase: BFGS first (SandOptions::warmupIterations), as a phase
   // the schedule continues, so that its own cap applies.

@@ -131,6 +131,19 @@ class DesignDriver {
   DesignFallbacks fallbacks_;
   std::vector<PoseState> states_;      // equilibria of the best design (Newton-polished): the next phase's start
   std::vector<PoseState> optimizer_;   // the optimizer's own states of the best design (result.states)
+  // The best design whose equilibria are those of its loading path from rest
+  // (the initial design, then phase ends found on the path): what a run
+  // that went on from a loading path's equilibria falls back to when it ends
+  // worse than that.
+  struct OnPathDesign {
+    ControlValues controls;
+    Design design;
+    double objective = 0.0, rms = 0.0;
+    std::vector<PoseState> states;
+    std::string label;
+  };
+  OnPathDesign bestOnPath_;
+  bool wentOnFromPath_ = false;  // continueFromPath was called
 };
 
 bool PhaseContext::iterate(DesignIterate& it, const ControlValues* design, bool equilibrium, bool settled) {
@@ -218,7 +231,10 @@ bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>&
       }
     }
   }
-  if (!(gap > tolerance)) return false;
+  if (!(gap > tolerance)) {
+    if (f < bestOnPath_.objective) bestOnPath_ = {res_.controls, res_.design, f, rms, path, "the end of " + task.label};
+    return false;
+  }
   note = "the design kept at the end of " + task.label + " has pose '" + scene_.poses[worst].name +
          "' as loaded from rest " + millimetres(gap) + " from the optimizer's equilibrium (tolerance " +
          millimetres(tolerance) + "; RMS " + millimetres(res_.rms) + " on the optimizer's equilibria, " +
@@ -230,6 +246,7 @@ void DesignDriver::continueFromPath(std::vector<PoseState> path) {
   double f = 0.0;
   const double rms = objective_.rms(objectiveOfStates(model_, objective_, res_.design, path, f));
   adopt(res_.controls, res_.design, f, rms, path, path);
+  wentOnFromPath_ = true;
 }
 
 std::string DesignDriver::adoptBestOnPath() {
@@ -276,6 +293,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   for (int k = 0; k < K; ++k) res_.initialPositions.push_back(model_.pose(k).positions(states_[k], d0));
   optimizer_ = states_;
   res_.states = states_;
+  bestOnPath_ = {res_.controls, d0, f0, rms0, states_, "the initial design"};
   {
     DesignIterate it;
     it.phase = "initial";
@@ -301,6 +319,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   double roundStart = res_.objective;
   int roundStartIteration = 0;
   int attempt = 0;        // retries of the current phase (divergence, off the loading path)
+  bool retryDiverged = false;  // the retry is that of a diverged phase
   int phaseIndex = 0;
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignStep& step = steps[ph];
@@ -333,6 +352,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     task.iterationBase = iterations;
     task.remainingIterations = remaining;
     task.attempt = attempt;
+    task.diverged = attempt > 0 && retryDiverged;
     task.controls = res_.controls;
     task.states = states_;
     task.objective = res_.objective;
@@ -349,16 +369,20 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
 
     if (pr.end == PhaseEnd::Diverged) {
       // Run the phase again from the best design so far; the phase solver
-      // sees task.attempt = 1 and holds its iterates nearer equilibrium. A
-      // second divergence ends the run.
+      // sees task.diverged and runs it in a way that keeps its iterates at
+      // (or near) equilibrium (PhaseSolver::divergedRetry). A second
+      // divergence ends the run.
       if (attempt < 1) {
         ++attempt;
+        retryDiverged = true;
+        notes.push_back("the iterates of " + task.label + " left equilibrium far behind (iteration " +
+                        std::to_string(iterations) + "); the phase was " + solver.divergedRetry());
         --ph;
         continue;
       }
       stop = Outcome::Stalled;
       message = "the iterates left equilibrium far behind in " + task.label +
-                ", also when held near equilibrium; the best design so far is the result";
+                ", also in its retry; the best design so far is the result";
       break;
     }
     if (pr.end == PhaseEnd::TimeLimit || pr.end == PhaseEnd::Interrupted) {
@@ -410,6 +434,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
       break;
     }
     attempt = 0;
+    retryDiverged = false;
     if (task.lastPhase && !pr.message.empty() && pr.end != PhaseEnd::PhaseCap) message = pr.message;
     // A round (rest shape, then radii) ends the run when it lowered the
     // objective by less than roundRelativeDecrease, or the RMS by less than
@@ -441,6 +466,23 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     if (adoptConfirmed(*monitor_, stop, res_, optimizer_, fallbacks_))
       message += "; the best design confirmed during the run (iteration " + std::to_string(monitor_->best()->iteration) +
                  ") is better than the last phase's and is the result";
+  }
+  // Going on from a loading path's equilibria (the optimizer's were not
+  // those of the loaded object) can end worse, as loaded from rest, than a
+  // design the run held before: that design is then the result, and the run
+  // did not converge (its archived equilibria are not the ones it ended at).
+  if (wentOnFromPath_) {
+    OnPathDesign best = bestOnPath_;
+    if (monitor_ && monitor_->best() && monitor_->best()->objective < best.objective) {
+      const ConfirmedDesign& c = *monitor_->best();
+      best = {c.controls, c.design, c.objective, c.rms, c.states, c.label + " (confirmed from rest during the run)"};
+    }
+    if (best.objective < res_.objective) {
+      message += "; the last design as loaded from rest (RMS " + millimetres(res_.rms) + ") is worse than " +
+                 best.label + " (RMS " + millimetres(best.rms) + "), which is the result";
+      adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);
+      if (stop == Outcome::Converged) stop = Outcome::Stalled;
+    }
   }
   for (const std::string& n : notes) message += "; " + n;
   res_.iterations = iterations;

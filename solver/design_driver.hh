@@ -36,7 +36,8 @@ struct PhaseTask {
   bool handsOver = false;      // a phase the schedule continues before any alternation (radius levels)
   int iterationBase = 0;       // run iterations before this phase
   int remainingIterations = 0; // of the run's --max-iter
-  int attempt = 0;             // 0, or 1 for the retry of a phase that diverged
+  int attempt = 0;             // 0, or 1 for the retry of a phase (diverged, or ended off the loading path)
+  bool diverged = false;       // the retry of a phase whose iterates left equilibrium far behind
   // The start: the best design so far, its equilibria (polished by Newton)
   // and objective.
   ControlValues controls;
@@ -125,6 +126,9 @@ class PhaseSolver {
   // (SAND, whose equilibria come only with the phase end's polish); used in
   // messages.
   virtual bool iteratesAreEquilibria() const = 0;
+  // How the solver runs the retry of a diverged phase (task.diverged), for
+  // the run's message.
+  virtual std::string divergedRetry() const { return "run again from the best design so far"; }
 };
 
 // The reduced method's phase solver (BFGS on the reduced objective,
@@ -132,6 +136,12 @@ class PhaseSolver {
 // to start its first phase (SandOptions::warmupIterations).
 std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(const SceneModel& model, const DesignSpace& space,
                                                     const DesignOptimizerOptions& options);
+
+// The reduced method's Newton-CG phase solver (solver/design_optimizer.cc);
+// `options` must outlive it. SAND also uses it for the retry of a phase whose
+// Ipopt iterates diverged (SandOptions::newtonRetry).
+std::unique_ptr<PhaseSolver> makeNewtonPhaseSolver(const SceneModel& model, const DesignSpace& space,
+                                                   const DesignOptimizerOptions& options);
 
 // Runs the schedule of `options` with `solver` and returns the run's result
 // (solver/design_optimizer.hh).

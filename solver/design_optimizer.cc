@@ -668,6 +668,11 @@ std::unique_ptr<PhaseSolver> makeReducedPhaseSolver(const SceneModel& model, con
   return std::make_unique<ReducedPhaseSolver>(model, space, options);
 }
 
+std::unique_ptr<PhaseSolver> makeNewtonPhaseSolver(const SceneModel& model, const DesignSpace& space,
+                                                   const DesignOptimizerOptions& options) {
+  return std::make_unique<NewtonPhaseSolver>(model, space, options);
+}
+
 DesignOptimizerResult optimizeNewton(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
                                      const DesignProgress& progress) {
   NewtonPhaseSolver solver(model, space, opt);

@@ -85,6 +85,41 @@ TEST(SandRecovery, LevelsScheduleEndsWithOneJointPhaseAndRecovers) {
   EXPECT_LT(rms, 0.05 * r.initialRms) << r.status.message;
 }
 
+// A phase whose Ipopt iterates leave equilibrium (forced here: any
+// violation above 1e-12 of the largest load counts) is run again by the
+// reduced Newton-CG method, whose iterates are equilibria: the run recovers
+// the hidden design and says what happened. Without that retry the Ipopt
+// retry diverges as well and the run ends stalled.
+TEST(SandRecovery, ADivergedPhaseIsRunAgainByNewtonCg) {
+  const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
+  SceneModel model(pr.scene);
+  const DesignSpace space(pr.scene, model.effects());
+  SandOptions o;
+  o.readOptionsFile = false;
+  o.optimizer.maxIterations = 400;
+  o.optimizer.schedule = Schedule::Joint;
+  o.warmupIterations = 0;
+  o.divergedLoads = 1e-12;
+  const DesignOptimizerResult r = optimizeSand(model, space, o);
+  EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
+  EXPECT_NE(r.status.message.find("run again by the reduced Newton-CG method"), std::string::npos) << r.status.message;
+  const double rms = resolvedRms(model, pr.scene, r.design);
+  EXPECT_LT(rms, 0.05 * r.initialRms) << r.status.message;
+  // The retry's iterates are equilibria: no constraint violation recorded.
+  int ipopt = 0, newton = 0;
+  for (const DesignIterate& it : r.history) {
+    if (it.iteration == 0) continue;
+    (it.constraintViolation > 0 ? ipopt : newton) += 1;
+  }
+  EXPECT_GT(ipopt, 0);
+  EXPECT_GT(newton, 0);
+
+  o.newtonRetry = false;
+  const DesignOptimizerResult held = optimizeSand(model, space, o);
+  EXPECT_EQ(held.status.outcome, Outcome::Stalled) << held.status.message;
+  EXPECT_NE(held.status.message.find("also in its retry"), std::string::npos) << held.status.message;
+}
+
 TEST(SandRecovery, ThreadCountDoesNotChangeTheResult) {
   const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, false, 5, 3);
   SandOptions o;

@@ -90,6 +90,8 @@ TEST(DesignDriver, RetriesADivergedPhaseOnceThenStops) {
   ASSERT_EQ(phases.tasks.size(), 2u);
   EXPECT_EQ(phases.tasks[0].attempt, 0);
   EXPECT_EQ(phases.tasks[1].attempt, 1);
+  EXPECT_FALSE(phases.tasks[0].diverged);
+  EXPECT_TRUE(phases.tasks[1].diverged) << "the phase solver is told why the phase runs again";
   EXPECT_EQ(phases.tasks[1].iterationBase, 2);
   EXPECT_EQ(phases.tasks[1].index, 0) << "the retry is the same phase";
   EXPECT_EQ(r.status.outcome, Outcome::Stalled);
@@ -205,6 +207,45 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
   EXPECT_GT(own[20].z(), 0.0);
   const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
   EXPECT_FALSE(a.offPath) << a.note;
+}
+
+// A run that went on from the loading path's equilibria and found nothing
+// better there ends with the best design whose equilibria are its loading
+// path's: here the initial design, as the thicker arch the phase proposed
+// (its inverted equilibrium near the targets) stays up when loaded from rest,
+// farther from the inverted targets than the initial arch. The run is not
+// converged: the archived equilibria are not the ones it ended at.
+TEST(DesignDriver, ARunWorseOnThePathThanItsStartKeepsTheStart) {
+  Scene s = testutil::invertibleArch();
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  const ControlValues c0 = space.initialControls(s);
+  const Design d0 = space.toDesign(c0);
+  s.poses[0].target = model.pose(0).positions(testutil::invertedArchState(s, model.pose(0), d0), d0);
+  SceneModel targeted(s);
+  ControlValues thick = c0;
+  thick.radii *= 1.2;
+  const Design d1 = space.toDesign(thick);
+  const PoseState inverted = testutil::invertedArchState(s, targeted.pose(0), d1);
+  ASSERT_LT(targeted.pose(0).positions(inverted, d1)[20].z(), -0.04);
+  ScriptedPhases phases;
+  phases.script = [&](const PhaseTask& task, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 5;
+    if (task.attempt == 0) r.candidates.push_back({thick, {inverted}});  // the retry finds nothing better
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
+  ASSERT_EQ(phases.tasks.size(), 2u) << r.status.message;
+  ASSERT_GT(phases.tasks[1].objective, r.initialObjective)
+      << "the thick arch from rest must be worse than the initial one for this test";
+  EXPECT_EQ(r.status.outcome, Outcome::Stalled) << r.status.message;
+  EXPECT_TRUE(sameControls(r.controls, c0)) << r.status.message;
+  EXPECT_DOUBLE_EQ(r.objective, r.initialObjective);
+  EXPECT_NE(r.status.message.find("worse than the initial design"), std::string::npos) << r.status.message;
+  const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
+  EXPECT_FALSE(a.offPath) << a.note;
+  EXPECT_NEAR(a.rms, r.initialRms, 1e-9);
 }
 
 // The same targets with a real reduced run, radii free in [4, 6] mm: at
