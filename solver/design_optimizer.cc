@@ -443,7 +443,7 @@ class NestedPhase {
  public:
   NestedPhase(const PhaseTask& task, PhaseContext& ctx, const DesignSpace& space, const TargetObjective& objective,
               ReducedObjective& ro, const Eigen::VectorXd& scale)
-      : task_(task), ctx_(ctx), space_(space), objective_(objective), ro_(ro), s_(scale) {}
+      : task_(task), ctx_(ctx), space_(space), objective_(objective), ro_(ro), s_(scale), accepted_{task.objective} {}
 
   // Every phase stops on the gradient test, on the relative decrease over a
   // window, on its cap (phaseIterationCap) and on the run's time limit.
@@ -481,10 +481,39 @@ class NestedPhase {
   void offer(DesignIterate di) {
     ControlValues c;
     if (acceptedZ_.size() > 0) c = space_.unpack(task_.step.phase, acceptedZ_, task_.controls);
+    const double f = di.objective;
     targetsMet_ = ctx_.iterate(di, acceptedZ_.size() > 0 ? &c : nullptr, true, true);
+    // No meaningful progress, the rule of SAND's StallDetector: over the
+    // last stallWindow accepted iterates (every one an equilibrium) the RMS
+    // fell by less than kMeaningfulRmsPerIteration x stallWindow of the
+    // initial design's RMS. The relative-decrease rule of the minimizers
+    // does not see this: a run near an exact design keeps halving an error
+    // that no longer matters to a designer.
+    accepted_.push_back(f);
+    const int w = ctx_.options().stallWindow;
+    const std::size_t n = accepted_.size();
+    if (w > 0 && n > static_cast<std::size_t>(w) &&
+        !meaningfulGain(accepted_[n - 1 - w], f, ctx_.initialObjective(), w)) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "no meaningful progress: the last %d iterations lowered the RMS by less than %.2g%% of the "
+                    "initial design's",
+                    w, 100 * kMeaningfulRmsPerIteration * w);
+      stalled_ = buf;
+    }
   }
   bool targetsMet() const { return targetsMet_; }
-  bool stopRequested() const { return targetsMet_ || ctx_.interrupted(); }
+  // The phase stopped because it made no meaningful progress: why (empty: it did not).
+  const std::string& stalled() const { return stalled_; }
+  bool stopRequested() const { return targetsMet_ || !stalled_.empty() || ctx_.interrupted(); }
+  // The phase's end, from the minimizer's status and this phase's own stops.
+  void setEnd(const Status& status, int iterations, PhaseResult& out) const {
+    setPhaseEnd(status, iterations, targetsMet_, task_, ctx_, out);
+    if (!targetsMet_ && !stalled_.empty() && status.outcome == Outcome::Interrupted && !ctx_.interrupted()) {
+      out.end = PhaseEnd::Stalled;
+      out.message = stalled_;
+    }
+  }
 
   // The phase's candidate: the minimizer's best point x (scaled) with its
   // equilibria (the objective caches the last evaluation; the best point is
@@ -515,6 +544,8 @@ class NestedPhase {
   const Eigen::VectorXd& s_;
   Eigen::VectorXd acceptedZ_;  // the last accepted point, unscaled (progress follows accepted points)
   bool targetsMet_ = false;
+  std::vector<double> accepted_;  // objective at the phase's start and at every accepted iterate
+  std::string stalled_;
 };
 
 // The reduced method's phase: BFGS with a projected line search
@@ -560,7 +591,7 @@ class ReducedPhaseSolver : public PhaseSolver {
     out.equilibriumRestarts = ro.restarts();
     np.addCandidate(br.x, br.f, out);
     out.evaluationSeconds = ro.evaluationSeconds();
-    setPhaseEnd(br.status, br.iterations, np.targetsMet(), task, ctx, out);
+    np.setEnd(br.status, br.iterations, out);
     return out;
   }
 
@@ -649,7 +680,7 @@ class NewtonPhaseSolver : public PhaseSolver {
     out.equilibriumRestarts = ro.restarts();
     np.addCandidate(tr.x, tr.f, out);
     out.evaluationSeconds = ro.evaluationSeconds() + hessianSeconds;
-    setPhaseEnd(tr.status, tr.iterations, np.targetsMet(), task, ctx, out);
+    np.setEnd(tr.status, tr.iterations, out);
     return out;
   }
 

@@ -58,6 +58,37 @@ INSTANTIATE_TEST_SUITE_P(Parameters, NewtonDesign,
                                   (i.param.rest ? "rest_shape" : "");
                          });
 
+// A phase whose accepted iterates (all equilibria) stop lowering the RMS
+// meaningfully ends there, by the rule SAND's stall test uses: over the last
+// stallWindow iterations less than kMeaningfulRmsPerIteration x stallWindow
+// of the initial RMS. Checked on the history: the run stops at the first
+// window that falls short, not before and not later. A window of 3 and a
+// gradient tolerance that is never met make the rule the one that ends it.
+TEST(NewtonDesign, StopsAtTheFirstWindowWithoutMeaningfulProgress) {
+  const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, false, 3, 2);
+  SceneModel model(pr.scene);
+  const DesignSpace space(pr.scene, model.effects());
+  DesignOptimizerOptions o;
+  o.maxIterations = 400;
+  o.schedule = Schedule::Joint;
+  o.stallWindow = 3;
+  o.tolerance = 1e-300;
+  o.phaseRelativeDecrease = 0.0;
+  o.confirmDesigns = false;
+  const DesignOptimizerResult r = optimizeNewton(model, space, o);
+  ASSERT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
+  ASSERT_NE(r.status.message.find("no meaningful progress"), std::string::npos) << r.status.message;
+  std::vector<double> f;
+  for (const DesignIterate& it : r.history) f.push_back(it.objective);
+  ASSERT_GT(f.size(), 4u);
+  const int w = o.stallWindow;
+  const std::size_t n = f.size();
+  EXPECT_FALSE(meaningfulGain(f[n - 1 - w], f[n - 1], r.initialObjective, w));
+  for (std::size_t k = w; k + 1 < n; ++k)
+    EXPECT_TRUE(meaningfulGain(f[k - w], f[k], r.initialObjective, w)) << "a window ending at " << k << " fell short";
+  EXPECT_LT(r.rms, 0.01 * r.initialRms) << r.status.message;
+}
+
 TEST(NewtonDesign, ThreadCountDoesNotChangeTheResult) {
   const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 5, 2);
   DesignOptimizerOptions o;
