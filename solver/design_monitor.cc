@@ -142,18 +142,34 @@ void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
     std::lock_guard<std::mutex> lock(mutex_);
     threshold = bestObjective_;
   }
-  // 1. Warm started from the last confirmed equilibria: a cheap test that
+  // 1. Warm started from the last converged equilibria: a cheap test that
   //    the design has equilibria near the optimizer's branch and is better.
-  std::vector<PoseState> states = warm_;
-  if (static_cast<int>(states.size()) != K) return;
+  //    When the design has moved beyond where that start converges (a
+  //    retried phase, a large step), the equilibria from rest become the
+  //    warm start instead; otherwise every later, farther design would fail
+  //    the same way and nothing would be confirmed again.
+  if (static_cast<int>(warm_.size()) != K) return;
   SimulationResult warmSim;
-  for (int k = 0; k < K; ++k) {
-    const NewtonReport r = solveEquilibrium(model.pose(k), d, states[k], newton_);
-    if (cancel_.load() || !r.converged || states[k].loadFactor != 1.0) return;
-    PoseResult pr;
-    pr.positions = model.pose(k).positions(states[k], d);
-    warmSim.poses.push_back(std::move(pr));
+  std::vector<PoseState> states;
+  auto solveFrom = [&](std::vector<PoseState> start) {
+    warmSim.poses.clear();
+    for (int k = 0; k < K; ++k) {
+      const NewtonReport r = solveEquilibrium(model.pose(k), d, start[k], newton_);
+      if (!r.converged || start[k].loadFactor != 1.0) return false;
+      PoseResult pr;
+      pr.positions = model.pose(k).positions(start[k], d);
+      warmSim.poses.push_back(std::move(pr));
+    }
+    states = std::move(start);
+    return true;
+  };
+  if (!solveFrom(warm_)) {
+    if (cancel_.load()) return;
+    std::vector<PoseState> rest;
+    for (int k = 0; k < K; ++k) rest.push_back(model.pose(k).restState(d));
+    if (!solveFrom(std::move(rest))) return;
   }
+  if (cancel_.load()) return;
   warm_ = states;  // converged: the next check starts here
   if (!(simulationObjective(scene_, warmSim) < threshold)) return;
   // 2. From rest, as `rodmesh simulate` and the archive solve it.

@@ -182,6 +182,27 @@ TEST_F(DesignMonitorTest, ConfirmsOnlyDesignsThatReSolveFromRestBetterThanAllBef
   EXPECT_EQ(reported[2].iteration, 4);
 }
 
+// A warm start from which no design converges any more (here: not finite;
+// in a run: equilibria of a design far behind the optimizer's, after a
+// retried phase) is replaced by the equilibria from rest, so that designs
+// are still confirmed, and the next check starts from those.
+TEST_F(DesignMonitorTest, AWarmStartThatNoLongerConvergesIsReplacedByTheEquilibriaFromRest) {
+  std::vector<PoseState> broken = warm_;
+  for (PoseState& s : broken) s.u.setConstant(std::numeric_limits<double>::quiet_NaN());
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, broken, initialObjective_,
+                        DesignMonitor::Clock::now());
+  monitor.offer(between(0.5), 1, "half way");
+  monitor.drain();
+  ASSERT_TRUE(monitor.best().has_value()) << "the design re-solves from rest better than the initial one";
+  EXPECT_EQ(monitor.best()->iteration, 1);
+  monitor.offer(between(1.0), 2, "hidden");
+  monitor.drain();
+  ASSERT_TRUE(monitor.best().has_value());
+  EXPECT_EQ(monitor.best()->iteration, 2);
+  for (const PoseState& s : monitor.best()->states) EXPECT_TRUE(s.u.allFinite());
+  monitor.stop();
+}
+
 TEST_F(DesignMonitorTest, NonFiniteDesignsAreRejectedAndStopReturnsPromptly) {
   DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
                         DesignMonitor::Clock::now());
