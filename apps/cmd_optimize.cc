@@ -175,8 +175,8 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       ->capture_default_str();
   app->add_option("--schedule", opts->schedule,
                   "paper (radii by levels, then rest shape and radii alternating; the default of --method reduced), "
-                  "levels (radii by levels, then radii and rest shape together; the default of --method sand), "
-                  "joint (everything at once; the default of --method newton) or multilevel (everything together, "
+                  "levels (radii by levels, then radii and rest shape together), "
+                  "joint (everything at once; the default of --method sand and --method newton) or multilevel (everything together, "
                   "level by level)")
       ->check(CLI::IsMember({"paper", "joint", "levels", "multilevel"}));
   app->add_option("--threads", opts->optimizer.threads, "poses solved in parallel (results do not depend on it)")

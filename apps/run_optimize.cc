@@ -63,7 +63,9 @@ void checkOptimizeOptions(OptimizeOptions& o) {
   if (o.method == "sand")
     if (std::string why = checkIpoptOptionsFile(); !why.empty()) throw InputError("optimize: " + why);
 #endif
-  if (o.schedule.empty()) o.schedule = o.method == "sand" ? "levels" : o.method == "newton" ? "joint" : "paper";
+  // Each method's default schedule (docs/optimization.md, "Defaults"): the
+  // paper's for the paper's method, everything at once for the others.
+  if (o.schedule.empty()) o.schedule = o.method == "reduced" ? "paper" : "joint";
   o.optimizer.schedule = o.schedule == "joint"        ? Schedule::Joint
                          : o.schedule == "levels"     ? Schedule::Levels
                          : o.schedule == "multilevel" ? Schedule::Multilevel

@@ -105,7 +105,7 @@ TEST(SandOtherModel, RadiiOnShellAndLoadFreeTargetsConvergeNearEquilibrium) {
   const DesignSpace space(scene, model.effects());
   SandOptions o;
   o.readOptionsFile = false;
-  o.optimizer.schedule = Schedule::Levels;  // `optimize --method sand`'s default
+  o.optimizer.schedule = Schedule::Joint;  // `optimize --method sand`'s default
   const DesignOptimizerResult r = optimizeSand(model, space, o);
   checkOtherModelRun("sand", model, space, r);
   // The iterates stay within a few of the largest pose force of equilibrium

@@ -197,9 +197,10 @@ TEST_F(DesignMonitorTest, AWarmStartThatNoLongerConvergesIsReplacedByTheEquilibr
   EXPECT_EQ(monitor.best()->iteration, 1);
   monitor.offer(between(1.0), 2, "hidden");
   monitor.drain();
-  ASSERT_TRUE(monitor.best().has_value());
-  EXPECT_EQ(monitor.best()->iteration, 2);
-  for (const PoseState& s : monitor.best()->states) EXPECT_TRUE(s.u.allFinite());
+  const std::optional<ConfirmedDesign> best = monitor.best();
+  ASSERT_TRUE(best.has_value());
+  EXPECT_EQ(best->iteration, 2);
+  for (const PoseState& s : best->states) EXPECT_TRUE(s.u.allFinite());
   monitor.stop();
 }
 
