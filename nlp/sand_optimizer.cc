@@ -615,7 +615,12 @@ PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext&
     out.candidates.push_back({nlp.controls(point.data()), nlp.states(point.data())});
   };
   finalCandidate_ = -1;
-  if (tnlp->finalPoint().size() == static_cast<std::size_t>(nlp.numVariables())) {
+  // A diverged phase's final point lies by construction hundreds of loads
+  // off equilibrium: polishing it by Newton (continuation from there) is
+  // slow and never yields the better design; only the best nearly feasible
+  // iterate is a candidate then.
+  const bool diverged = tnlp->stopReason() == StopReason::Diverging;
+  if (!diverged && tnlp->finalPoint().size() == static_cast<std::size_t>(nlp.numVariables())) {
     candidate(tnlp->finalPoint());
     finalCandidate_ = 0;
     if (tnlp->finalMultipliers().size() == static_cast<std::size_t>(nlp.numConstraints()))

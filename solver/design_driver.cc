@@ -260,14 +260,35 @@ std::string DesignDriver::adoptBestOnPath() {
     adopt(res_.controls, res_.design, f, rms, path, path);
     best = f;
   }
+  // The best design found on its loading path (the initial design at
+  // least): known without a solve.
+  if (bestOnPath_.objective < best) {
+    best = bestOnPath_.objective;
+    label = bestOnPath_.label;
+    adopt(bestOnPath_.controls, bestOnPath_.design, best, bestOnPath_.rms, bestOnPath_.states, bestOnPath_.states);
+  }
+  // Then the monitor's best confirmed design (its objective from rest is
+  // known; one solve for its states) and the fallbacks, best first, as long
+  // as the optimizer's own objective for them is below the best found from
+  // rest so far: each costs a loading path per pose (seconds on scenes with
+  // prescribed rotations), and a design the optimizer scored worse on its
+  // own branch is rarely better from rest.
+  std::vector<std::pair<ControlValues, std::string>> tries;
+  if (monitor_)
+    if (const std::optional<ConfirmedDesign> c = monitor_->best(); c && c->objective < best)
+      tries.emplace_back(c->controls, c->label + " (confirmed from rest during the run)");
   for (const FallbackDesign& c : candidates) {
+    if (!(c.objective < best)) break;
+    tries.emplace_back(c.controls, c.label);
+  }
+  for (const auto& [controls, name] : tries) {
     if (interrupted() || timeUp()) break;
-    const Design d = space_.toDesign(c.controls);
+    const Design d = space_.toDesign(controls);
     path = restStates(d);
     if (!solveAndScore(d, path, f, rms) || !(f < best)) continue;
     best = f;
-    label = c.label;
-    adopt(c.controls, d, f, rms, path, path);
+    label = name;
+    adopt(controls, d, f, rms, path, path);
   }
   return label;
 }

@@ -117,6 +117,11 @@ ArchivedDesign chooseArchivedDesign(const SceneModel& model, const DesignSpace& 
     std::stable_sort(candidates.begin(), candidates.end(),
                      [](const FallbackDesign& a, const FallbackDesign& b) { return a.objective < b.objective; });
     for (const FallbackDesign& f : candidates) {
+      // Only designs the optimizer scored better on its own equilibria than
+      // the final one does from rest (best first): each try costs a loading
+      // path per pose, and one the optimizer scored worse on its own branch
+      // is rarely better from rest.
+      if (!(f.rms < out.rms)) continue;
       const Design d = space.toDesign(f.controls);
       SimulationResult sim;
       try {

@@ -557,7 +557,24 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     finishState(0.0);
     return total;
   }
-  if (scale == 0.0) {
+  // A pose whose loads add nothing to the force at rest beyond that force's
+  // own round-off (no gravity, force or moment, held vertices at their rest
+  // positions: only the rest shape's round-off is left, e.g. 2.5e-15 N) has
+  // no load: the rest configuration is its equilibrium, and a loading path
+  // towards it would only chase noise (thousands of load steps). The
+  // applied part is the difference of the rest residuals at load factors 1
+  // and 0, exactly zero when nothing is applied; a straight rod's residual
+  // at rest is exactly zero, so a real load however light stays a load.
+  // Checked for solves that start at rest (one more gradient there).
+  bool noLoad = scale == 0.0;
+  if (!noLoad && state.loadFactor <= 0.0) {
+    Eigen::VectorXd g0, g1;
+    system.evaluate(PoseState{rest.u, state.charts, 0.0}, design, &g0, nullptr);
+    system.evaluate(PoseState{rest.u, state.charts, 1.0}, design, &g1, nullptr);
+    const Eigen::VectorXd r0 = system.forceResidual(g0), r1 = system.forceResidual(g1);
+    noLoad = r0.allFinite() && r1.allFinite() && (r1 - r0).stableNorm() <= r0.stableNorm();
+  }
+  if (noLoad) {
     // No load at all: the rest configuration is the equilibrium.
     total.converged = true;
     total.outcome = Outcome::Converged;

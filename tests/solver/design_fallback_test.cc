@@ -56,6 +56,41 @@ ControlValues scaledControls(const DesignSpace& space, const Scene& s, double ra
   return c;
 }
 
+// A pose with nothing applied (no gravity, no force, held vertices at rest)
+// is solved from rest as no load, without a loading path: its force at rest
+// is the rest shape's round-off alone (nonzero here), which a path would
+// chase through thousands of load steps (6 s for one pose of 98 vertices in
+// benchmarks/other_model's shape_small before).
+TEST(LoadingPath, APoseWithNothingAppliedIsNoLoad) {
+  testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(false, true, 3, 2);
+  pr.scene.gravity.reset();
+  for (Pose& p : pr.scene.poses) {
+    p.forces.clear();
+    p.twistingMoments.clear();
+    for (FixedVertex& f : p.fixed) f.position.reset();
+  }
+  SceneModel model(pr.scene);
+  const DesignSpace space(pr.scene, model.effects());
+  const Design d = space.toDesign(space.initialControls(pr.scene));
+  const PoseSystem& sys = model.pose(0);
+  PoseState s = sys.restState(d);
+  const double scale = loadScale(sys, d);
+  ASSERT_GT(scale, 0.0) << "the rest shape's round-off must be there for this test";
+  const NewtonReport r = solveEquilibrium(sys, d, s, NewtonOptions{});
+  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_EQ(r.loadSteps, 0) << r.message;
+  EXPECT_EQ(r.message, "no load: rest configuration");
+  EXPECT_EQ(s.loadFactor, 1.0);
+  EXPECT_EQ((s.u - sys.restState(d).u).cwiseAbs().maxCoeff(), 0.0);
+  // A light force at the free corner is a load again, however light.
+  pr.scene.poses[0].forces.push_back({static_cast<int>(pr.scene.vertices.size()) - 1, Vec3(0, 0, -1e-9)});
+  SceneModel loaded(pr.scene);
+  PoseState t = loaded.pose(0).restState(d);
+  const NewtonReport q = solveEquilibrium(loaded.pose(0), d, t, NewtonOptions{});
+  EXPECT_NE(q.message, "no load: rest configuration");
+  EXPECT_GT((t.u - loaded.pose(0).restState(d).u).cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST(DesignFallbacks, KeepBestFirstWithinTheirCapacitySpreadOverTheRun) {
   const Scene s = testutil::bentCantilever(2e-3);
   SceneModel model(s);
