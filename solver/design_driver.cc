@@ -143,6 +143,7 @@ class DesignDriver {
     std::string label;
   };
   OnPathDesign bestOnPath_;
+  OnPathDesign lastPath_;        // the design offLoadingPath solved last, with its loading path
   bool wentOnFromPath_ = false;  // continueFromPath was called
 };
 
@@ -216,6 +217,7 @@ bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>&
   // A design that does not re-solve from rest is the archive's business
   // (fallback designs); the optimizer's equilibria are all there is to go on.
   if (!solveAndScore(res_.design, path, f, rms)) return false;
+  lastPath_ = {res_.controls, res_.design, f, rms, path, ""};
   const double tolerance = designedEquilibriumTolerance(res_.rms, structureSize());
   double gap = 0.0;
   int worst = 0;
@@ -253,12 +255,20 @@ std::string DesignDriver::adoptBestOnPath() {
   const std::vector<FallbackDesign> candidates = fallbacks_.designs();
   std::string label = "the last phase's design";
   double best = std::numeric_limits<double>::infinity();
-  // The current best design first, then the fallbacks.
-  std::vector<PoseState> path = restStates(res_.design);
+  // The current best design first (its loading path is usually the one
+  // offLoadingPath just solved), then the fallbacks.
+  std::vector<PoseState> path;
   double f = 0.0, rms = 0.0;
-  if (solveAndScore(res_.design, path, f, rms)) {
-    adopt(res_.controls, res_.design, f, rms, path, path);
-    best = f;
+  if (sameControls(lastPath_.controls, res_.controls) && !lastPath_.states.empty()) {
+    const OnPathDesign known = lastPath_;
+    adopt(known.controls, known.design, known.objective, known.rms, known.states, known.states);
+    best = known.objective;
+  } else {
+    path = restStates(res_.design);
+    if (solveAndScore(res_.design, path, f, rms)) {
+      adopt(res_.controls, res_.design, f, rms, path, path);
+      best = f;
+    }
   }
   // The best design found on its loading path (the initial design at
   // least): known without a solve.
