@@ -381,6 +381,18 @@ std::string SandPhaseSolver::prepare(const std::vector<PoseState>& states, doubl
   o.SetNumericValue("constr_viol_tol", std::max(1e-12, 10.0 * opt_.newton.tolerance));
   o.SetNumericValue("acceptable_tol", std::min(1e-2, 1e3 * opt_.tolerance));
   o.SetNumericValue("acceptable_constr_viol_tol", 1e-6);
+  // Initial constraint multipliers: Ipopt's least-squares estimate, however
+  // large. By default (constr_mult_init_max 1e3) Ipopt discards an estimate
+  // with any entry above 1e3 and starts from zero multipliers; the first
+  // Hessian of the Lagrangian then lacks the equilibrium's own curvature
+  // (sum_k lambda_k d2F_k, the geometric stiffness the objective acts
+  // through), and the first step, from the BFGS start's equilibrium, left
+  // equilibrium by 36 N under loads of tenths of newtons on the hat with
+  // radii and rest shape free (benchmarks/defaults hat_both). With the
+  // estimate kept that run stays within 1.4 N, exact in 56 s instead of
+  // 117 s through a diverged phase and its Newton-CG retry
+  // (docs/optimization.md, "SAND phases that diverge").
+  o.SetNumericValue("constr_mult_init_max", 1e20);
   // User options before Initialize (journals such as output_file are opened
   // there) and again after it, so that they override ./ipopt.opt.
   for (const auto& [key, value] : so_.ipopt)
