@@ -23,6 +23,16 @@ double resolvedRms(const SceneModel& model, const Scene& scene, const Design& d)
   return rmsError(sim);
 }
 
+// SAND as the command line runs it (no ./ipopt.opt), up to 400 iterations,
+// with schedule `s`.
+SandOptions recoveryOptions(Schedule s) {
+  SandOptions o;
+  o.readOptionsFile = false;
+  o.optimizer.maxIterations = 400;
+  o.optimizer.schedule = s;
+  return o;
+}
+
 struct Case {
   bool radii, rest;
 };
@@ -69,10 +79,7 @@ TEST(SandRecovery, LevelsScheduleEndsWithOneJointPhaseAndRecovers) {
   const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
   SceneModel model(pr.scene);
   const DesignSpace space(pr.scene, model.effects());
-  SandOptions o;
-  o.readOptionsFile = false;
-  o.optimizer.maxIterations = 400;
-  o.optimizer.schedule = Schedule::Levels;
+  SandOptions o = recoveryOptions(Schedule::Levels);
   const DesignOptimizerResult r = optimizeSand(model, space, o);
   ASSERT_NE(r.status.outcome, Outcome::NumericalFailure) << r.status.message;
   int joint = 0;
@@ -95,10 +102,7 @@ TEST(SandRecovery, ADivergedPhaseIsRunAgainByNewtonCg) {
   const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
   SceneModel model(pr.scene);
   const DesignSpace space(pr.scene, model.effects());
-  SandOptions o;
-  o.readOptionsFile = false;
-  o.optimizer.maxIterations = 400;
-  o.optimizer.schedule = Schedule::Joint;
+  SandOptions o = recoveryOptions(Schedule::Joint);
   o.warmupIterations = 0;
   o.divergedLoads = 1e-12;
   const DesignOptimizerResult r = optimizeSand(model, space, o);
@@ -131,10 +135,7 @@ TEST(SandRecovery, RestShapeRunStaysNearEquilibriumFromTheBfgsStart) {
   const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
   SceneModel model(pr.scene);
   const DesignSpace space(pr.scene, model.effects());
-  SandOptions o;
-  o.readOptionsFile = false;
-  o.optimizer.maxIterations = 400;
-  o.optimizer.schedule = Schedule::Joint;
+  SandOptions o = recoveryOptions(Schedule::Joint);
   const DesignOptimizerResult r = optimizeSand(model, space, o);
   EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
   EXPECT_EQ(r.status.message.find("left equilibrium"), std::string::npos) << r.status.message;
