@@ -294,7 +294,7 @@ def main():
           "" if schedules == ["default"] else " --schedule %s" % "/".join(schedules),
           "/".join("%g" % x for x in limits),
           "/".join(sorted({str(r["max_iter"]) for e in exps for r in results[e].values()})),
-          ": every method with its default schedule (SAND `levels`, reduced BFGS `paper`, Newton-CG `joint`)"
+          ": every method with its default schedule (SAND `joint`, reduced BFGS `paper`, Newton-CG `joint`)"
           if schedules == ["default"] else ""))
     w("RMS: `sqrt(sum |q - target|^2 / (poses x vertices))`. *Default*: the uniform initial design. "
       "*After radii*: the last iterate of the radius-only levels (0-2) that is an equilibrium "
