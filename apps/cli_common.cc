@@ -154,10 +154,12 @@ ArchivePose makeArchivePose(const std::string& name, const std::vector<Vec3>& po
     p.target = toRows(target);
     p.rmsError = rmsError(positions, target);
   }
-  p.residualNorm = solve.residualNorm;
-  p.status = solve.status;
-  p.iterations = solve.iterations;
-  p.timeSeconds = solve.timeSeconds;
+  if (solve.solve) {
+    p.residualNorm = solve.solve->residualNorm;
+    p.status = archiveStatus(solve.solve->outcome);
+    p.iterations = solve.solve->iterations;
+    p.timeSeconds = solve.solve->timeSeconds;
+  }
   p.outOfPlaneStable = solve.outOfPlaneStable;
   p.stable = solve.stable;
   p.smallestEigenvalue = solve.smallestEigenvalue;
@@ -198,10 +200,7 @@ std::string formatSeconds(double s) {
 
 PoseSolveSummary newtonSolveSummary(const PoseResult& pr) {
   PoseSolveSummary sum;
-  sum.status = pr.report.converged ? "converged" : archiveStatus(pr.report.outcome);
-  sum.residualNorm = pr.report.residualNorm;
-  sum.iterations = pr.report.iterations;
-  sum.timeSeconds = pr.report.timeSeconds;
+  sum.solve = pr.report;
   if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
   if (pr.stable) sum.stable = *pr.stable ? 1 : 0;
   sum.smallestEigenvalue = pr.smallestEigenvalue;

@@ -50,12 +50,11 @@ void printEffects(const EffectSet& fx, const RodNetwork& net, long long dofsPerP
 
 // ---- Building archives: the parts simulate and optimize fill alike.
 
-// How one pose's equilibrium solve went (the /poses/NAME extension attributes).
+// How one pose's equilibrium solve went (the /poses/NAME extension
+// attributes): the solver's summary (its outcome gives the status:
+// converged, not_converged or failed) and the stability of the state.
 struct PoseSolveSummary {
-  std::string status;         // converged, not_converged or failed; empty: not written
-  double residualNorm = 0.0;  // N
-  int iterations = 0;
-  double timeSeconds = 0.0;
+  std::optional<SolveSummary> solve;  // unset: no status, residual, iterations or time written
   int outOfPlaneStable = -1;  // 1/0 for planar Newton solves, -1 unknown (not written)
   int stable = -1;            // 1/0: the state is a stable equilibrium; -1 unknown (not written)
   std::optional<double> smallestEigenvalue;  // N/m

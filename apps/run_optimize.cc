@@ -156,7 +156,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       if (ap.equilibriumGap) std::fprintf(stderr, ", gap to the optimizer's equilibrium %.3e m", *ap.equilibriumGap);
       std::cerr << "\n";
       const NewtonReport& rep = chosen.simulation.poses[p].report;
-      if (!rep.converged) std::cerr << "  reason: " << rep.message << "\n";
+      if (!rep.converged()) std::cerr << "  reason: " << rep.message << "\n";
     }
   }
   return {std::move(a), r.initialRms};

@@ -176,7 +176,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
       auto progress = [&](int frame, double t, const DynamicsReport& r) {
         if (quiet) return;
         std::fprintf(stderr, "pose %d '%s': frame %d, t = %.4f s, %d steps (%d rejected), %d Newton iterations\n", p,
-                     name.c_str(), frame, t, r.steps, r.rejectedSteps, r.newtonIterations);
+                     name.c_str(), frame, t, r.steps, r.rejectedSteps, r.iterations);
       };
       DynamicsOptions dyn = o.dynamics;
       dyn.loadRampTime = rampFor(o, scene, p);
@@ -187,17 +187,14 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
       const DynamicsReport rep = simulateDynamics(sys, design, masses, dyn, o.duration, o.fps, frames, progress);
       PoseSolveSummary solve;
       // A step below its minimum fails; a step budget or time limit stops early.
-      solve.status = rep.ok ? "converged" : archiveStatus(rep.outcome);
-      solve.iterations = rep.newtonIterations;
-      solve.residualNorm = rep.lastResidual;
-      solve.timeSeconds = rep.wallSeconds;
+      solve.solve = rep;
       char steps[96] = "";
       if (rep.steps > 0)
         std::snprintf(steps, sizeof steps, ", step %.3g to %.3g s", rep.minStepTaken, rep.maxStepTaken);
       char details[256];
       std::snprintf(details, sizeof details, "t = %.4f s in %d steps (%d rejected%s), %d Newton iterations", rep.time,
-                    rep.steps, rep.rejectedSteps, steps, rep.newtonIterations);
-      addPoseFromDofs(p, frames.finalDofs, frames.finalState.charts, solve, details, rep.ok ? "" : rep.message);
+                    rep.steps, rep.rejectedSteps, steps, rep.iterations);
+      addPoseFromDofs(p, frames.finalDofs, frames.finalState.charts, solve, details, rep.converged() ? "" : rep.message);
       ArchiveFrames af;
       af.name = name;
       af.time = Eigen::Map<const Eigen::VectorXd>(frames.time.data(), frames.time.size());
@@ -219,15 +216,12 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
       Charts charts;
       const RelaxationReport rep = relaxEquilibrium(sys, design, u, ro, &charts);
       PoseSolveSummary solve;
-      solve.status = rep.converged ? "converged" : "not_converged";
-      solve.iterations = rep.iterations;
-      solve.residualNorm = rep.residualNorm;
-      solve.timeSeconds = rep.timeSeconds;
+      solve.solve = rep;
       char details[256];
       std::snprintf(details, sizeof details,
                     "%d relaxation iterations, %d kinetic-energy peaks, relative residual %.1e", rep.iterations,
                     rep.restarts, rep.relativeResidual);
-      addPoseFromDofs(p, u, charts, solve, details, rep.converged ? "" : rep.message);
+      addPoseFromDofs(p, u, charts, solve, details, rep.converged() ? "" : rep.message);
     }
   } else {
     a.extraRootAttributes["solver"] = "newton";
@@ -243,7 +237,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
       char details[256];
       std::snprintf(details, sizeof details, "%d Newton iterations, %d load steps, relative residual %.1e",
                     pr.report.iterations, pr.report.loadSteps, pr.report.relativeResidual);
-      addPose(p, pr.positions, pr.twist, solve, details, pr.report.converged ? "" : pr.report.message);
+      addPose(p, pr.positions, pr.twist, solve, details, pr.report.converged() ? "" : pr.report.message);
       if (!quiet)
         for (const CriticalPoint& cp : pr.report.criticalPoints)
           std::cerr << "  critical point at load factor " << cp.loadFactor << " (smallest stiffness eigenvalue "

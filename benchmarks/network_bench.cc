@@ -98,7 +98,7 @@ NewtonTiming timeNewton(const PoseSystem& sys, const Design& d, double tol, int 
     out.iterations = r.iterations;
     out.loadSteps = r.loadSteps;
     out.factorizations = r.factorizations;
-    out.converged = r.converged;
+    out.converged = r.converged();
     out.relResidual = r.relativeResidual;
     if (solution) *solution = u;
   }

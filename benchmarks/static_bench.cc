@@ -96,7 +96,7 @@ Timing timeSolve(const Scene& scene, int repeat) {
     tf.push_back(r.factorSeconds);
     out.iterations = r.iterations;
     out.dofs = sys.numDofs();
-    out.converged = r.converged;
+    out.converged = r.converged();
     out.relResidual = r.relativeResidual;
     out.x = sys.positions(PoseState{u, sys.restCharts(d), 1.0}, d);
   }

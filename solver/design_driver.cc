@@ -18,7 +18,7 @@ bool solvePosesFrom(const SceneModel& model, const Design& d, std::vector<PoseSt
   forEachPose(K, threads, [&](int k) {
     try {
       const NewtonReport r = solveEquilibrium(model.pose(k), d, states[k], newton);
-      ok[k] = r.converged && states[k].loadFactor == 1.0;
+      ok[k] = r.converged() && states[k].loadFactor == 1.0;
     } catch (...) {
       ok[k] = 0;
     }

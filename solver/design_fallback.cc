@@ -20,7 +20,7 @@ std::string millimetres(double metres) {
 // "pose 'NAME': why" for the first pose that did not converge.
 std::string firstFailure(const SimulationResult& sim) {
   for (const PoseResult& p : sim.poses)
-    if (!p.report.converged) return "pose '" + p.name + "': " + p.report.message;
+    if (!p.report.converged()) return "pose '" + p.name + "': " + p.report.message;
   return "";
 }
 

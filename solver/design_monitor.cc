@@ -155,7 +155,7 @@ void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
     warmSim.poses.clear();
     for (int k = 0; k < K; ++k) {
       const NewtonReport r = solveEquilibrium(model.pose(k), d, start[k], newton_);
-      if (!r.converged || start[k].loadFactor != 1.0) return false;
+      if (!r.converged() || start[k].loadFactor != 1.0) return false;
       PoseResult pr;
       pr.positions = model.pose(k).positions(start[k], d);
       warmSim.poses.push_back(std::move(pr));

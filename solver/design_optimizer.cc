@@ -135,7 +135,7 @@ bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& state
           states[p] = std::move(predicted);
       }
       const NewtonReport r = solveEquilibrium(sys, d, states[p], newton_);
-      ok[p] = r.converged && states[p].loadFactor == 1.0;
+      ok[p] = r.converged() && states[p].loadFactor == 1.0;
       restarted[p] = r.loadSteps > 1;
     } catch (...) {
       ok[p] = 0;
@@ -167,7 +167,7 @@ bool ReducedObjective::probeObjective(const Eigen::VectorXd& z, const std::vecto
       const PoseSystem& sys = model_.pose(p);
       PoseState st = start[p];
       const NewtonReport r = solveEquilibrium(sys, d, st, newton_);
-      ok[p] = r.converged && st.loadFactor == 1.0;
+      ok[p] = r.converged() && st.loadFactor == 1.0;
       if (ok[p]) fk[p] = objective_.pose(sys, st, d, nullptr, nullptr);
     } catch (...) {
       ok[p] = 0;

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "solver/mass.hh"
+#include "solver/minimizer.hh"
 #include "solver/modified_ldlt.hh"
 #include "solver/newton.hh"
 
@@ -98,171 +99,75 @@ double BackwardEuler::kineticEnergy() const { return 0.5 * (mass_.array() * v_.a
 
 double BackwardEuler::potentialEnergy() const { return sys_.energy(state_, design_); }
 
-void BackwardEuler::assemble(double invH2) {
-  const Eigen::SparseMatrix<double>& H = H_;
-  const int n = sys_.numDofs();
-  if (A_.rows() != n || hessToA_.size() != static_cast<std::size_t>(H.nonZeros())) {
-    // Pattern of A: the Hessian's (lower triangle) plus the full diagonal.
-    std::vector<Eigen::Triplet<double>> pattern;
-    pattern.reserve(H.nonZeros() + n);
-    for (int c = 0; c < n; ++c) {
-      pattern.emplace_back(c, c, 0.0);
-      for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it) pattern.emplace_back(it.row(), c, 0.0);
-    }
-    A_.resize(n, n);
-    A_.setFromTriplets(pattern.begin(), pattern.end());
-    A_.makeCompressed();
-    hessToA_.assign(H.nonZeros(), -1);
-    diagA_.assign(n, -1);
-    for (int c = 0; c < n; ++c) {
-      int k = A_.outerIndexPtr()[c];
-      for (int kh = H.outerIndexPtr()[c]; kh < H.outerIndexPtr()[c + 1]; ++kh) {
-        while (A_.innerIndexPtr()[k] != H.innerIndexPtr()[kh]) ++k;
-        hessToA_[kh] = k;
-      }
-      for (int ka = A_.outerIndexPtr()[c]; ka < A_.outerIndexPtr()[c + 1]; ++ka)
-        if (A_.innerIndexPtr()[ka] == c) diagA_[c] = ka;
-    }
-  }
-  double* a = A_.valuePtr();
-  std::fill(a, a + A_.nonZeros(), 0.0);
-  const double* hv = H.valuePtr();
-  for (std::size_t k = 0; k < hessToA_.size(); ++k) a[hessToA_[k]] += hv[k];
-  for (int c = 0; c < n; ++c) a[diagA_[c]] += invH2 * mass_[c];
-}
-
 BackwardEuler::Trial BackwardEuler::solveStep(double h, double loadFactor) {
   Trial tr;
   const Eigen::VectorXd& u0 = state_.u;
-  // Evaluations of the step: at its end's load factor, in the state's charts.
-  PoseState at{Eigen::VectorXd(), state_.charts, loadFactor};
-  auto with = [&at](const Eigen::VectorXd& x) -> const PoseState& {
-    at.u = x;
-    return at;
-  };
   const int n = sys_.numDofs();
   const int nv = sys_.numVertexDofs();
-  const double invH2 = 1.0 / (h * h);
-  const double eps = std::numeric_limits<double>::epsilon();
-  Eigen::VectorXd uPred = u0;
-  uPred.head(nv) += h * v_.head(nv);
-  auto phi = [&](const Eigen::VectorXd& w, double E) {
-    return E + 0.5 * invH2 * (mass_.array() * (w - uPred).array().square()).sum();
-  };
+  InertiaTerm inertia;
+  inertia.mass = &mass_;
+  inertia.invH2 = 1.0 / (h * h);
+  inertia.predicted = u0;
+  inertia.predicted.head(nv) += h * v_.head(nv);
+  const Eigen::VectorXd& uPred = inertia.predicted;
 
-  // Start from the prediction or from the current state, whichever is lower.
-  Eigen::VectorXd w = uPred;
+  // The step's unknowns at its end's load factor, in the state's charts
+  // (re-anchored only between steps). It starts from the prediction or from
+  // the current state, whichever has the lower incremental potential.
+  PoseState at{uPred, state_.charts, loadFactor};
   {
-    const double phiPred = phi(uPred, sys_.energy(with(uPred), design_));
-    const double phiCur = phi(u0, sys_.energy(with(u0), design_));
-    if (!std::isfinite(phiPred) || (std::isfinite(phiCur) && phiCur < phiPred)) w = u0;
+    auto phi = [&](const Eigen::VectorXd& w) {
+      at.u = w;
+      return sys_.energy(at, design_) +
+             0.5 * inertia.invH2 * (mass_.array() * (w - uPred).array().square()).sum();
+    };
+    const double phiPred = phi(uPred);
+    const double phiCur = phi(u0);
+    at.u = (!std::isfinite(phiPred) || (std::isfinite(phiCur) && phiCur < phiPred)) ? u0 : uPred;
   }
 
-  Eigen::VectorXd gE(n), g(n), d(n), wTrial(n);
-  double E = 0.0, ref = 0.0;
-  static const bool debug = std::getenv("RODMESH_DEBUG_DYNAMICS") != nullptr;
-  for (int it = 0;; ++it) {
-    auto ta = Clock::now();
-    E = sys_.evaluate(with(w), design_, &gE, &H_);
-    rep_.assemblySeconds += since(ta);
-    if (!std::isfinite(E) || !gE.allFinite()) {
-      tr.failure = "energy or forces are not finite";
-      return tr;
-    }
-    g = gE + invH2 * mass_.cwiseProduct(w - uPred);
-    const double res = sys_.forceResidual(g).stableNorm();
-    tr.residual = res;
-    if (!std::isfinite(res)) {
-      tr.failure = "the force residual is not finite";
-      return tr;
-    }
-    // Relative to the step's own force imbalance: the pose's load scale can
-    // dwarf the forces that drive the motion (prescribed displacements).
-    if (it == 0) ref = res;
-    if (res <= opt_.tolerance * ref) break;
-
-    ta = Clock::now();
-    assemble(invH2);
-    const int before = factor_.factorizations();
-    const bool ok = factor_.factorize(A_);
-    rep_.factorizations += factor_.factorizations() - before;
-    rep_.factorSeconds += since(ta);
-    // Modified Newton where the matrix is indefinite (a buckling rod with a
-    // large step) or singular (massless twists without stiffness): a descent
-    // direction for Phi (solver/modified_ldlt.hh).
-    if (ok) d = factor_.solve(-g);
-    const double slope = ok ? g.dot(d) : 0.0;
-    if (!ok || !d.allFinite() || !(slope < 0)) {
-      tr.failure = "no descent direction for the incremental potential";
-      return tr;
-    }
-    // Round-off (as in solver/newton.hh): the residual at the floor that
-    // rounding the unknowns produces with a decrement below the energy of
-    // that rounding, or a correction below the round-off of every unknown.
-    // The inertia term's own round-off is that of w - u_pred, eps (|w| +
-    // |u_pred|) per unknown, not the kernels' (a falling rod at w = 0 moves
-    // by g h^2 per step, however small: 1e-17 m at h = 1e-9 s).
-    if (factor_.negative() == 0) {
-      const Eigen::VectorXd a = roundoff::unknownScale(sys_, w);
-      const Eigen::ArrayXd inertia = eps * invH2 * mass_.array() * (w.array().abs() + uPred.array().abs());
-      const Eigen::VectorXd rho =
-          (roundoff::residualFloor(H_, a).array().square() + inertia.square()).sqrt().matrix();
-      const double energyFloor =
-          roundoff::energyFloor(H_, a) + (inertia.square() / (invH2 * mass_.array()).max(1e-300)).sum();
-      // Component by component: the inertia of a coordinate far from the
-      // origin must not hide the residual of one near it.
-      if ((sys_.forceResidual(g).cwiseAbs().array() <= sys_.forceResidual(rho).array()).all() &&
-          factor_.stiffDecrement(-g) <= energyFloor)
-        break;
-      if (!factor_.modified() && (d.cwiseAbs().array() <= 4.0 * eps * w.cwiseAbs().array()).all()) break;
-    }
-    if (debug)
-      std::fprintf(stderr, "h %.3e it %d res %.3e E %.6e neg %d sing %d |d| %.3e\n", h, it, res, E, factor_.negative(),
-                   factor_.singular(), d.lpNorm<Eigen::Infinity>());
-    if (it >= opt_.maxNewtonIterations) {
-      std::ostringstream os;
-      os << "Newton did not converge in " << opt_.maxNewtonIterations << " iterations (residual " << res << " N)";
-      tr.failure = os.str();
-      return tr;
-    }
-    ++tr.iterations;
-
-    // Backtracking on Phi; where Phi differences are at round-off, a step
-    // that lowers the residual is accepted instead.
-    const double phiW = phi(w, E);
-    double alpha = 1.0;
-    bool accepted = false;
-    for (int b = 0; b <= opt_.maxBacktracks && !accepted; ++b, alpha *= 0.5) {
-      wTrial = w + alpha * d;
-      ta = Clock::now();
-      const double Et = sys_.energy(with(wTrial), design_);
-      rep_.assemblySeconds += since(ta);
-      if (!std::isfinite(Et)) continue;
-      const double phiT = phi(wTrial, Et);
-      if (phiT <= phiW + opt_.armijo * alpha * slope) {
-        accepted = true;
-      } else if (std::abs(phiT - phiW) <= 1e-12 * std::max(std::abs(phiW), 1e-300)) {
-        Eigen::VectorXd gt;
-        sys_.evaluate(with(wTrial), design_, &gt, nullptr);
-        gt += invH2 * mass_.cwiseProduct(wTrial - uPred);
-        accepted = gt.allFinite() && sys_.forceResidual(gt).norm() < res;
-      }
-    }
-    if (!accepted) {
-      tr.failure = "line search failed on the incremental potential";
-      return tr;
-    }
-    w = wTrial;
+  // The minimizer's time-step settings: the tolerance relative to the step's
+  // own force imbalance, any curvature (the inertia term makes small steps
+  // definite; a step that is not is rejected by its size limits), no trust
+  // radius (the step size limits the motion) and fixed charts.
+  MinimizerSettings s;
+  s.scaleFromStart = true;
+  s.tolerance = opt_.tolerance;
+  s.maxIterations = opt_.maxNewtonIterations;
+  s.armijo = opt_.armijo;
+  s.maxBacktracks = opt_.maxBacktracks;
+  s.stableOnly = false;
+  s.maxEscapes = 0;
+  s.trustRegion = false;
+  s.reanchor = false;
+  s.inertia = &inertia;
+  const int before = ws_.factor.factorizations();
+  const NewtonReport r = minimizeEnergy(sys_, design_, at, s, ws_);
+  rep_.factorizations += ws_.factor.factorizations() - before;
+  rep_.assemblySeconds += r.assemblySeconds;
+  rep_.factorSeconds += r.factorSeconds;
+  tr.iterations = r.iterations;
+  tr.residual = r.residualNorm;
+  if (r.outcome != Outcome::Converged) {
+    std::ostringstream os;
+    if (r.outcome == Outcome::MaxIterations)
+      os << "Newton did not converge in " << opt_.maxNewtonIterations << " iterations (residual " << r.residualNorm
+         << " N)";
+    else
+      os << "the incremental potential: " << r.message;
+    tr.failure = os.str();
+    return tr;
   }
 
   // How much the step changed: deviation from the prediction (vertex
   // distance, in mean edge lengths) and twist change.
+  const Eigen::VectorXd& w = at.u;
   const int D = sys_.dofsPerVertex();
   double dev = 0.0;
   for (int k = 0; k < nv; k += D) dev = std::max(dev, (w.segment(k, D) - uPred.segment(k, D)).norm());
   tr.deviation = dev / sys_.momentArm();
   if (n > nv) tr.twistChange = (w.tail(n - nv) - u0.tail(n - nv)).lpNorm<Eigen::Infinity>();
-  tr.u = std::move(w);
+  tr.u = std::move(at.u);
   return tr;
 }
 
@@ -273,8 +178,10 @@ bool BackwardEuler::advanceTo(double t) {
   auto finish = [&](bool ok) {
     state_.loadFactor = loadFactorAt(t_);
     rep_.time = t_;
-    rep_.wallSeconds += since(t0);
-    rep_.ok = rep_.ok && ok;
+    rep_.loadFactor = state_.loadFactor;
+    rep_.relativeResidual = rep_.loadScale > 0 ? rep_.residualNorm / rep_.loadScale : rep_.residualNorm;
+    rep_.usable = state_.u.allFinite();
+    rep_.timeSeconds += since(t0);
     return ok;
   };
   if (n == 0) {
@@ -291,7 +198,7 @@ bool BackwardEuler::advanceTo(double t) {
       rep_.outcome = Outcome::MaxIterations;
       return finish(false);
     }
-    if (opt_.timeLimit > 0 && rep_.wallSeconds + since(t0) > opt_.timeLimit) {
+    if (opt_.timeLimit > 0 && rep_.timeSeconds + since(t0) > opt_.timeLimit) {
       rep_.message = "stopped at t = " + formatTime(t_) + ": the time limit of " + formatTime(opt_.timeLimit) +
                      " (wall clock) is reached";
       rep_.outcome = Outcome::TimeLimit;
@@ -302,8 +209,8 @@ bool BackwardEuler::advanceTo(double t) {
     const double h = clipped ? remaining : h_;
     const double stepLoadFactor = loadFactorAt(t_ + h);
     Trial tr = solveStep(h, stepLoadFactor);
-    rep_.newtonIterations += tr.iterations;
-    rep_.lastResidual = tr.residual;
+    rep_.iterations += tr.iterations;
+    rep_.residualNorm = tr.residual;
     std::string why = tr.failure;
     if (why.empty() && !tr.u.allFinite()) why = "non-finite state";
     if (why.empty() && tr.deviation > opt_.maxDisplacement) {
@@ -380,7 +287,7 @@ DynamicsReport simulateDynamics(const PoseSystem& system, const Design& design,
   frames.finalDofs = be.dofs();
   frames.finalState = be.state();
   DynamicsReport rep = be.report();
-  if (rep.ok) rep.message = "reached t = " + formatTime(rep.time);
+  if (rep.converged()) rep.message = "reached t = " + formatTime(rep.time);
   return rep;
 }
 

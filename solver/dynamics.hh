@@ -13,6 +13,9 @@
 // the twists; then v_{n+1} = (u_{n+1} - u_n) / h on the positions. grad Phi = 0
 // is exactly backward Euler: M (v_{n+1} - v_n) / h = -grad E(u_{n+1}). For a
 // convex energy the total energy (kinetic + potential) never increases.
+// Phi is minimised by the same Newton code as the static solve
+// (solver/minimizer.hh, with the inertia term, the tolerance relative to the
+// step's own force imbalance and fixed charts within the step).
 //
 // Held (fixed, clamped) vertices are not unknowns: they sit at their
 // prescribed positions, reached at time loadRampTime if that is positive (the
@@ -45,7 +48,7 @@
 
 #include "model/outcome.hh"
 #include "model/pose_system.hh"
-#include "solver/modified_ldlt.hh"
+#include "solver/minimizer.hh"
 
 namespace rodmesh {
 
@@ -74,24 +77,25 @@ struct DynamicsOptions {
 // duration within maxSteps steps (maxStep >= duration / maxSteps).
 std::string checkDynamicRun(const DynamicsOptions& options, double duration, double fps, double maxFrames);
 
-struct DynamicsReport {
-  bool ok = true;  // false: a step fell below minStep, or a bound was reached (state is the last accepted one)
-  // Why it stopped early: NumericalFailure (a step fell below minStep),
-  // MaxIterations (maxSteps spent), TimeLimit; Converged when it reached the end.
-  Outcome outcome = Outcome::Converged;
+// A dynamic run: the summary every solve reports (model/outcome.hh;
+// iterations are Newton iterations over all steps, rejected ones included;
+// residualNorm is |grad Phi| at the end of the last step attempted, N;
+// timeSeconds is wall clock) and the integrator's own counters. The outcome
+// is Converged when the run reached its end, else why it stopped early:
+// NumericalFailure (a step fell below minStep), MaxIterations (maxSteps
+// spent), TimeLimit. The state is always the last accepted one (usable).
+struct DynamicsReport : SolveSummary {
+  DynamicsReport() {
+    outcome = Outcome::Converged;
+    usable = true;
+  }
   int steps = 0;  // accepted time steps
   int rejectedSteps = 0;
-  int newtonIterations = 0;  // over all steps, rejected ones included
   int factorizations = 0;
   int chartUpdates = 0;       // steps after which reference-frame charts moved
   double time = 0.0;          // simulated time reached [s]
   double minStepTaken = 0.0;  // smallest and largest accepted step [s]
   double maxStepTaken = 0.0;
-  double lastResidual = 0.0;  // |grad Phi| at the end of the last step attempted [N] (accepted unless !ok)
-  double loadScale = 0.0;     // N, as in Newton (full load)
-  double wallSeconds = 0.0;
-  double assemblySeconds = 0.0, factorSeconds = 0.0;
-  std::string message;  // why it stopped, when it did
 };
 
 // Backward Euler integrator for one pose. It keeps its own state (unknowns,
@@ -132,7 +136,6 @@ class BackwardEuler {
     std::string failure;  // empty when Newton converged
   };
   Trial solveStep(double h, double loadFactor);
-  void assemble(double invH2);
 
   const PoseSystem& sys_;
   const Design& design_;
@@ -141,16 +144,12 @@ class BackwardEuler {
   DynamicsReport rep_;
   PoseState state_;
   Eigen::VectorXd v_;
-  Eigen::SparseMatrix<double> H_;  // Hessian of E at the last Newton iterate (lower triangle)
   double t_ = 0.0, h_ = 0.0;
   double twistRejected_ =
       -1.0;  // twist change of the last step rejected for it (-1: none since the last accepted step)
-
-  // Newton matrix: Hessian of E plus M / h^2 on the diagonal (lower triangle);
-  // its pattern is the Hessian's plus the diagonal, built once.
-  Eigen::SparseMatrix<double> A_;
-  std::vector<int> hessToA_, diagA_;
-  ModifiedLdlt factor_;
+  // The minimizer's buffers (Hessian, Newton matrix of the incremental
+  // potential, factorization), kept from step to step.
+  MinimizerWorkspace ws_;
 };
 
 // Frames of a dynamic run: positions of every vertex at each frame time.

@@ -68,7 +68,6 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
     PoseState state = sys.restState(design);
     const std::string unsupported = unsupportedLoad(model.scene(), model.network(), model.effects(), p, design);
     if (!unsupported.empty()) {
-      r.report.converged = false;
       r.report.outcome = Outcome::InvalidProblem;
       r.report.message = unsupported;
       r.report.loadScale = r.report.residualNorm = loadScale(sys, design);
@@ -90,9 +89,9 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
         r.smallestEigenvalue = st.smallestEigenvalue;
       }
     }
-    if (model.effects().planar && r.report.converged)
+    if (model.effects().planar && r.report.converged())
       r.outOfPlaneStable = outOfPlaneStable(model.scene(), model.network(), model.effects(), p, design, r.positions);
-    out.allConverged = out.allConverged && r.report.converged;
+    out.allConverged = out.allConverged && r.report.converged();
     if (progress) progress(p, r);
     out.poses.push_back(std::move(r));
   }

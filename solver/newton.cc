@@ -10,6 +10,7 @@
 #include <limits>
 #include <sstream>
 
+#include "solver/minimizer.hh"
 #include "solver/modified_ldlt.hh"
 
 namespace rodmesh {
@@ -21,16 +22,6 @@ double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 using Ldlt = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>>;
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
-constexpr double kPi = 3.14159265358979323846;
-// Rule 3: a Newton correction within this many units of round-off of every
-// unknown cannot improve the state.
-constexpr double kCorrectionUlps = 4.0;
-// The first Newton step from a state may not displace a vertex by more than
-// this many times the structure's size: such loads are beyond what double
-// precision can represent in equilibrium (energies ~ stiffness x size^2 x
-// this^2 would overflow).
-constexpr double kAbsurdDisplacement = 1e100;
-
 // Deterministic pseudo-random signs (splitmix64 of the index).
 double pseudoSign(std::uint64_t i) {
   std::uint64_t z = i + 0x9E3779B97F4A7C15ull;
@@ -40,356 +31,33 @@ double pseudoSign(std::uint64_t i) {
   return (z >> 63) ? 1.0 : -1.0;
 }
 
-// Largest vertex displacement of a step (Euclidean per vertex).
-double maxVertexStep(const PoseSystem& sys, const Eigen::VectorXd& d) {
-  const int D = sys.dofsPerVertex();
-  double m = 0.0;
-  for (int k = 0; k + D <= sys.numVertexDofs(); k += D) m = std::max(m, d.segment(k, D).stableNorm());
-  return m;
-}
-
-// Diagonal of the structure's bounding box at u (at least one mean edge).
-double structureSize(const PoseSystem& sys, const Design& design, const PoseState& state) {
-  const std::vector<Vec3> x = sys.positions(state, design);
-  if (x.empty()) return sys.momentArm();
-  Vec3 lo = x.front(), hi = x.front();
-  for (const Vec3& p : x) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  const double s = (hi - lo).norm();
-  return std::isfinite(s) ? std::max(s, sys.momentArm()) : sys.momentArm();
-}
-
 std::string format(const char* fmt, double a) {
   char buf[64];
   std::snprintf(buf, sizeof buf, fmt, a);
   return buf;
 }
 
-// Newton from state.u at state.loadFactor; the state's unknowns and charts
-// are updated in place.
+// Newton from state.u at state.loadFactor (solver/minimizer.hh with the
+// static settings: stable equilibria only, a trust radius, charts
+// re-anchored); the state's unknowns and charts are updated in place.
 NewtonReport newtonSolveUntil(const PoseSystem& system, const Design& design, PoseState& state, double scale,
                               double tolerance, const NewtonOptions& opt, Clock::time_point deadline,
                               bool hasDeadline, Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false) {
-  const auto t0 = Clock::now();
-  NewtonReport rep;
-  rep.loadScale = scale;
-  rep.loadSteps = 1;
-  rep.loadFactor = state.loadFactor;
-  const int n = system.numDofs();
-  const int nv = system.numVertexDofs();
-  Eigen::VectorXd& u = state.u;
-  // Trial points of the line searches share the state's charts and load factor.
-  PoseState trial = state;
-  Eigen::VectorXd& uTrial = trial.u;
-  Eigen::VectorXd g(n), gTrial(n), d(n);
-  Eigen::SparseMatrix<double> H;  // the Hessian at u (lower triangle)
-  double E = 0.0;
-  if (n == 0) {
-    E = system.evaluate(state, design, &g, nullptr);
-    rep.converged = true;
-    rep.outcome = Outcome::Converged;
-    rep.energy = E;
-    rep.message = "no unknowns";
-    return rep;
-  }
-
-  ModifiedLdlt factor;
-  int escapes = 0;
-  const bool debug = std::getenv("RODMESH_DEBUG_NEWTON") != nullptr;
-  const double size = structureSize(system, design, state);
-  // Trust radius on vertex displacements (m) for every step; grows after a
-  // full step that it limited, shrinks to what the line search accepted.
-  double radius = size;
-
-  auto ta = Clock::now();
-  E = system.evaluate(state, design, &g, &H);
-  rep.assemblySeconds += since(ta);
-  if (!std::isfinite(E) || !g.allFinite()) {
-    rep.outcome = Outcome::NumericalFailure;
-    rep.message = "energy or forces are not finite at the initial guess";
-    rep.timeSeconds = since(t0);
-    return rep;
-  }
-
-  const double energyAtStart = E;
-  double energyAtTenth = E;
-  for (int it = 0;; ++it) {
-    if (it == opt.maxIterations - std::max(1, opt.maxIterations / 10)) energyAtTenth = E;
-    const double res = system.forceResidual(g).norm();
-    rep.residualNorm = res;
-    rep.relativeResidual = scale > 0 ? res / scale : res;
-    rep.residualHistory.push_back(rep.relativeResidual);
-    rep.energy = E;
-
-    // Factorize the Hessian at the current point (solver/modified_ldlt.hh).
-    const Eigen::SparseMatrix<double>& H0 = H;
-    ta = Clock::now();
-    const int factorizationsBefore = factor.factorizations();
-    const bool factorOk = factor.factorize(H0);
-    rep.factorizations += factor.factorizations() - factorizationsBefore;
-    const int negative = factorOk ? factor.negative() : 0;
-    const int singular = factorOk ? factor.singular() : 0;
-    rep.factorSeconds += since(ta);
-    rep.negativePivots = negative;
-    rep.singularPivots = singular;
-    if (negative > 0) rep.negativeIterations++;
-    const bool modified = negative > 0 || singular > 0;
-
-    // Direction: Newton, or modified Newton (|D|, floored) where the Hessian
-    // is indefinite or singular.
-    bool haveDir = false;
-    double tau = 0.0;
-    if (factorOk) {
-      d = factor.solve(-g);
-      haveDir = d.allFinite() && d.dot(g) < 0;
-    }
-
-    // Round-off floor at this state (rule 2).
-    const Eigen::VectorXd a = roundoff::unknownScale(system, u);
-    const Eigen::VectorXd rho = roundoff::residualFloor(H0, a);
-    double floorForce = system.forceResidual(rho).norm();
-    if (!std::isfinite(floorForce)) floorForce = 0.0;
-    rep.roundoffFloor = floorForce;
-
-    const bool small = res <= tolerance * scale;
-    if (stopAtNegative && negative > 0) {
-      // A load step of the loading path that meets negative curvature is too
-      // long, or crosses a critical point: the caller shortens it.
-      rep.outcome = Outcome::Stalled;
-      rep.message = "met negative curvature";
-      break;
-    }
-    if (small && negative == 0) {
-      rep.converged = true;
-      rep.outcome = Outcome::Converged;
-      rep.message = "force residual below tolerance";
-      break;
-    }
-    if (factorOk && negative == 0 && haveDir) {
-      if (res <= floorForce) {
-        // The decrement over the modes with stiffness: along a zero-stiffness
-        // mode the floored pivot says nothing, and the residual there is
-        // already judged by the floor.
-        // Along zero-stiffness modes, every component of the residual must be
-        // within its own round-off (a light part hinged to a heavy one is not
-        // judged by the heavy part's floor).
-        const double noiseDecrement = roundoff::energyFloor(H0, a);
-        const double decrement = factor.stiffDecrement(-g);
-        const bool componentsAtFloor =
-            singular == 0 || (system.forceResidual(g).cwiseAbs().array() <= system.forceResidual(rho).array()).all();
-        if (debug)
-          std::fprintf(stderr, "it %3d  at floor: res %.3e N floor %.3e N decrement %.3e J noise %.3e J\n", it, res,
-                       floorForce, decrement, noiseDecrement);
-        if (decrement <= noiseDecrement && componentsAtFloor) {
-          rep.converged = true;
-          rep.outcome = Outcome::Converged;
-          rep.roundoff = true;
-          rep.message = "force residual " + format("%.3g", res) + " N at the round-off floor of this problem (" +
-                        format("%.3g", floorForce) +
-                        " N) with a Newton decrement below the energy of rounding the unknowns";
-          break;
-        }
-      }
-      if (!modified && (d.cwiseAbs().array() <= kCorrectionUlps * kEps * u.cwiseAbs().array()).all()) {
-        rep.converged = true;
-        rep.outcome = Outcome::Converged;
-        rep.roundoff = true;
-        rep.message = "Newton correction below the round-off of every unknown (force residual " + format("%.3g", res) +
-                      " N, round-off floor " + format("%.3g", floorForce) + " N)";
-        break;
-      }
-    }
-    const bool atFloor = res <= floorForce;
-    if (it >= opt.maxIterations) {
-      // Still progressing (a long descent such as a mechanism's rigid swing,
-      // not a stall): over the last tenth of the iterations the energy fell
-      // by more than its round-off, and either the residual reached a new
-      // low or that tenth (of a run of at least 20 iterations) still gained
-      // at least 1 % of the energy the whole run gained. The second case is
-      // a soft structure swinging into its loaded shape from a state near
-      // equilibrium under a small load (the rest state, or one small load
-      // step beyond an equilibrium): its residual grows during the swing and
-      // is not below its initial value until the end, while a stall gains
-      // ever less energy.
-      {
-        const auto& hist = rep.residualHistory;
-        const std::size_t tenth = std::max<std::size_t>(1, hist.size() / 10);
-        const double before = *std::min_element(hist.begin(), hist.end() - tenth);
-        const double recent = *std::min_element(hist.end() - tenth, hist.end());
-        const double gainedRecently = energyAtTenth - E;
-        rep.progressing = hist.size() > tenth && gainedRecently > 1e-12 * std::max(std::abs(E), 1e-300) &&
-                          (recent < before || (tenth >= 2 && gainedRecently >= 0.01 * (energyAtStart - E)));
-      }
-      const bool saddle = (small || atFloor) && negative > 0;
-      rep.message = saddle ? "reached an unstable equilibrium (negative curvature persists) at the iteration limit"
-                           : "iteration limit reached";
-      rep.unstable = saddle;
-      rep.outcome = saddle ? Outcome::Stalled : Outcome::MaxIterations;
-      break;
-    }
-    if ((hasDeadline && Clock::now() > deadline) || (opt.cancel && opt.cancel->load())) {
-      rep.outcome = Outcome::TimeLimit;
-      rep.message = "time limit reached";
-      break;
-    }
-
-    // At an unstable equilibrium (a saddle, e.g. a perfectly straight column
-    // above its buckling load), step along a direction of negative curvature:
-    // z = P^T L^-T e_k has z^T H z = D_k < 0.
-    if (factorOk && negative > 0 && (small || atFloor || res <= 1e-6 * scale) && escapes < opt.maxEscapes) {
-      Eigen::VectorXd z = factor.negativeCurvatureDirection();
-      if (z.dot(g) > 0) z = -z;
-      z *= 0.1 * system.momentArm() / std::max(z.head(nv).lpNorm<Eigen::Infinity>(), 1e-300);
-      if (!z.allFinite() || nv == 0) z.setZero();
-      double best = E;
-      Eigen::VectorXd uBest;
-      for (double s = 1.0; s > 1e-6; s *= 0.5) {
-        uTrial = u + s * z;
-        const double Et = system.energy(trial, design);
-        if (std::isfinite(Et) && Et < best) {
-          best = Et;
-          uBest = uTrial;
-          break;
-        }
-      }
-      ++escapes;
-      rep.escapes++;
-      if (uBest.size() > 0) {
-        if (debug) std::fprintf(stderr, "it %3d  escape along negative curvature, E %.6e -> %.6e\n", it, E, best);
-        u = uBest;
-        ta = Clock::now();
-        E = system.evaluate(state, design, &g, &H);
-        rep.assemblySeconds += since(ta);
-        rep.iterations++;
-        continue;
-      }
-    }
-    if (small || (atFloor && negative > 0 && escapes >= opt.maxEscapes)) {
-      // An equilibrium, but a saddle that the escapes could not leave: not a
-      // solution (a perturbation would carry the structure away from it).
-      rep.outcome = Outcome::Stalled;
-      rep.unstable = true;
-      rep.message = "reached an unstable equilibrium (negative curvature persists after " + std::to_string(escapes) +
-                    " steps along it)";
-      break;
-    }
-    rep.iterations++;
-
-    // A diagonal shift as the last resort when the factorization itself fails.
-    if (!haveDir) {
-      Eigen::VectorXd diag = H0.diagonal().cwiseAbs();
-      const double meanDiag = diag.sum() > 0 ? diag.sum() / n : 1.0;
-      diag = diag.cwiseMax(1e-8 * meanDiag);
-      ta = Clock::now();
-      for (tau = opt.minShift; tau <= opt.maxShift; tau *= 10) {
-        const int before = factor.factorizations();
-        const bool ok = factor.factorizeShifted(H0, tau * diag);
-        rep.factorizations += factor.factorizations() - before;
-        if (!ok) continue;
-        d = factor.solve(-g);
-        if (d.allFinite() && d.dot(g) < 0) {
-          haveDir = true;
-          break;
-        }
-      }
-      rep.factorSeconds += since(ta);
-      if (!haveDir) {
-        rep.outcome = Outcome::NumericalFailure;
-        rep.message = "could not find a descent direction (Hessian shift exceeded its limit)";
-        break;
-      }
-    }
-    if (modified || tau > 0) rep.hessianModifications++;
-    // The first unmodified Newton step from an equilibrium at a smaller load
-    // is the tangent (linear) prediction of the loading path.
-    if (firstStep && it == 0 && !modified && tau == 0) *firstStep = d;
-
-    // Loads far beyond what the model can hold: the linear response to them
-    // is itself beyond double precision.
-    const double stepLength = maxVertexStep(system, d);
-    if (it == 0 && !modified && tau == 0 && !(stepLength <= kAbsurdDisplacement * size)) {
-      rep.outcome = Outcome::NumericalFailure;
-      rep.message = "the loads are beyond double precision: the linear response to them moves a vertex by " +
-                    format("%.3g", stepLength) + " m, a structure of " + format("%.3g", size) + " m";
-      break;
-    }
-    // Trust radius on the vertex displacements; a modified step's twist
-    // components are limited to a quarter turn.
-    double cap = 1.0;
-    if (stepLength > radius) cap = radius / stepLength;
-    if (modified && n > nv) {
-      const double dth = d.tail(n - nv).lpNorm<Eigen::Infinity>();
-      if (dth * cap > 0.5 * kPi) cap = 0.5 * kPi / dth;
-    }
-    const bool capped = cap < 1.0;
-    if (capped) d *= cap;
-
-    // Backtracking line search on the energy; near convergence, where energy
-    // differences drown in round-off, a step that reduces the residual is
-    // accepted instead.
-    double alpha = 1.0;
-    const double slope = g.dot(d);
-    bool accepted = false, anyFinite = false;
-    double Etrial = 0.0;
-    for (int b = 0; b <= opt.maxBacktracks; ++b) {
-      uTrial = u + alpha * d;
-      ta = Clock::now();
-      Etrial = system.energy(trial, design);
-      rep.assemblySeconds += since(ta);
-      if (std::isfinite(Etrial)) {
-        anyFinite = true;
-        if (Etrial <= E + opt.armijo * alpha * slope) {
-          accepted = true;
-        } else if (std::abs(Etrial - E) <= 1e-12 * std::max(std::abs(E), 1e-300)) {
-          // Energy differences at round-off: judge the step by the residual.
-          system.evaluate(trial, design, &gTrial, nullptr);
-          accepted = gTrial.allFinite() && system.forceResidual(gTrial).norm() < res;
-        }
-        if (accepted) break;
-      }
-      alpha *= 0.5;
-      rep.backtracks++;
-    }
-    if (accepted) {
-      ta = Clock::now();
-      Etrial = system.evaluate(trial, design, &gTrial, &H);
-      rep.assemblySeconds += since(ta);
-      accepted = std::isfinite(Etrial) && gTrial.allFinite();
-    }
-    if (!accepted) {
-      if (!anyFinite) {
-        rep.outcome = Outcome::NumericalFailure;
-        rep.message = "line search failed: the energy is not finite anywhere along the step";
-      } else {
-        rep.outcome = Outcome::Stalled;
-        rep.message = "line search failed: no step along the descent direction lowers the energy";
-      }
-      break;
-    }
-    if (debug)
-      std::fprintf(stderr,
-                   "it %3d  E %.12e  res %.3e  floor %.3e  neg %d  sing %d  tau %.1e  cap %.2e  alpha %.3e  |dx| %.3e "
-                   "|dth| %.3e\n",
-                   it, E, rep.relativeResidual, scale > 0 ? floorForce / scale : floorForce, negative, singular, tau,
-                   cap, alpha, alpha * maxVertexStep(system, d),
-                   n > nv ? alpha * d.tail(n - nv).lpNorm<Eigen::Infinity>() : 0.0);
-    if (capped) radius = alpha == 1.0 ? 4.0 * radius : std::max(alpha * radius, 1e-6 * size);
-    u = uTrial;
-    E = Etrial;
-    g = gTrial;
-    // Edges that turned far from their reference-frame chart get a new one
-    // (same energy, new coordinates): the derivatives are re-evaluated.
-    if (std::optional<PoseState> moved = system.reanchored(state, design)) {
-      rep.chartUpdates++;
-      state = std::move(*moved);
-      trial.charts = state.charts;
-      E = system.evaluate(state, design, &g, &H);
-    }
-  }
-  rep.timeSeconds = since(t0);
-  return rep;
+  MinimizerSettings s;
+  s.scale = scale;
+  s.tolerance = tolerance;
+  s.maxIterations = opt.maxIterations;
+  s.armijo = opt.armijo;
+  s.maxBacktracks = opt.maxBacktracks;
+  s.minShift = opt.minShift;
+  s.maxShift = opt.maxShift;
+  s.maxEscapes = opt.maxEscapes;
+  s.stopAtNegative = stopAtNegative;
+  s.firstStep = firstStep;
+  if (hasDeadline) s.deadline = deadline;
+  s.cancel = opt.cancel;
+  MinimizerWorkspace workspace;
+  return minimizeEnergy(system, design, state, s, workspace);
 }
 
 }  // namespace
@@ -576,8 +244,8 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   }
   if (noLoad) {
     // No load at all: the rest configuration is the equilibrium.
-    total.converged = true;
     total.outcome = Outcome::Converged;
+    total.usable = true;
     total.message = "no load: rest configuration";
     u = rest.u;
     charts = rest.charts;
@@ -621,7 +289,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   // long to tell. Returns the deviation ratio (< 0: not on the path).
   auto pathDeviation = [&](const NewtonReport& rs, const Eigen::VectorXd& from, const Eigen::VectorXd& to,
                            const Eigen::VectorXd& tangent) -> double {
-    if (!rs.converged || rs.negativeIterations > 0 || rs.escapes > 0) return -1.0;
+    if (!rs.converged() || rs.negativeIterations > 0 || rs.escapes > 0) return -1.0;
     if (tangent.size() != from.size()) return -1.0;
     const double lin = maxVertexStep(system, tangent);
     const double dev = maxVertexStep(system, to - from - tangent);
@@ -634,7 +302,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   const bool fullFromState = !path || warm;
   NewtonReport r = solveAt(1.0, uTry, opt.tolerance, fullFromState ? opt : stepOpt, &tangent, path && !warm);
   merge(r);
-  for (int resume = 0; fullFromState && !r.converged && r.outcome == Outcome::MaxIterations && r.progressing &&
+  for (int resume = 0; fullFromState && !r.converged() && r.outcome == Outcome::MaxIterations && r.progressing &&
                        resume < opt.maxLoadHalvings;
        ++resume) {
     r = solveAt(1.0, uTry, opt.tolerance, opt);
@@ -643,9 +311,9 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   }
   bool accepted = false;
   if (!path)
-    accepted = r.converged;
+    accepted = r.converged();
   else if (warm)
-    accepted = r.converged;
+    accepted = r.converged();
   else
     accepted = pathDeviation(r, u, uTry, tangent) >= 0.0;
   double reached = 1.0;
@@ -675,7 +343,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     bool negativeBeyond = false;  // a failed step beyond lam met negative curvature
     int pathSteps = 0;            // load steps kept (jumps past critical points included)
     if (unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure) {
-      if (path && !r.converged) {
+      if (path && !r.converged()) {
         // The path step stopped at negative curvature (or the warm start
         // failed): a mechanism's answer is the full load from rest, wherever
         // its rigid motion leads.
@@ -684,14 +352,14 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         r = solveAt(1.0, uTry, opt.tolerance, opt);
         merge(r);
         for (int resume = 0;
-             !r.converged && r.outcome == Outcome::MaxIterations && r.progressing && resume < opt.maxLoadHalvings;
+             !r.converged() && r.outcome == Outcome::MaxIterations && r.progressing && resume < opt.maxLoadHalvings;
              ++resume) {
           r = solveAt(1.0, uTry, opt.tolerance, opt);
           merge(r);
           total.resumes++;
         }
       }
-      if (path && r.converged) {
+      if (path && r.converged()) {
         uCur = uTry;
         chartsCur = charts;
         lam = 1.0;
@@ -711,7 +379,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
       NewtonReport rs = solveAt(next, uTry, next < 1.0 ? stepTol : opt.tolerance, stepOpt, &tangent, path);
       merge(rs);
       r = rs;
-      const double deviation = path ? pathDeviation(rs, uCur, uTry, tangent) : (rs.converged ? 0.0 : -1.0);
+      const double deviation = path ? pathDeviation(rs, uCur, uTry, tangent) : (rs.converged() ? 0.0 : -1.0);
       if (deviation >= 0.0) {
         ++pathSteps;
         lam = next;
@@ -742,7 +410,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         NewtonReport rj = solveAt(beyond, uTry, beyond < 1.0 ? stepTol : opt.tolerance, opt);
         merge(rj);
         for (int resume = 0;
-             !rj.converged && rj.outcome == Outcome::MaxIterations && rj.progressing && resume < opt.maxLoadHalvings;
+             !rj.converged() && rj.outcome == Outcome::MaxIterations && rj.progressing && resume < opt.maxLoadHalvings;
              ++resume) {
           rj = solveAt(beyond, uTry, beyond < 1.0 ? stepTol : opt.tolerance, opt);
           merge(rj);
@@ -753,7 +421,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
           timedOut = true;
           break;
         }
-        if (rj.converged) {
+        if (rj.converged()) {
           const Stability there = stability(system, design, PoseState{uCur, chartsCur, lam});
           const bool critical = negativeBeyond || (there.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
                                                    there.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
@@ -780,7 +448,6 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     charts = chartsCur;
     reached = lam;
     if (!failed && !timedOut && lam >= 1.0) {
-      r.converged = true;
       r.outcome = Outcome::Converged;
       if (path && pathSteps > 0) {
         std::ostringstream os;
@@ -794,7 +461,6 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
       }
     }
     if (timedOut) {
-      r.converged = false;
       r.outcome = Outcome::TimeLimit;
       r.message = "time limit reached at load factor " + format("%.6g", lam) + "; the returned state is the " +
                   (lam > 0 ? "equilibrium at load factor " + format("%.6g", lam) + ", not at the full load"
@@ -802,7 +468,6 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     } else if (failed) {
       const std::string last = r.message;
       const Outcome lastOutcome = r.outcome;
-      r.converged = false;
       std::ostringstream os;
       const std::string returned = lam > 0 ? "the returned state is the equilibrium at load factor " +
                                                  format("%.6g", lam) + ", not at the full load"
@@ -851,19 +516,17 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   total.relativeResidual = total.residualNorm / scale;
   total.energy = e;
   if (!std::isfinite(total.residualNorm) || !std::isfinite(e)) {
-    r.converged = false;
     r.outcome = Outcome::NumericalFailure;
     r.message = "the final state has non-finite energy or forces (" + r.message + ")";
-  } else if (r.converged && !r.roundoff &&
+  } else if (r.converged() && !r.roundoff &&
              !(total.residualNorm <= std::max(1e3 * opt.tolerance, std::sqrt(opt.tolerance)) * scale ||
                total.residualNorm <= r.roundoffFloor)) {
-    r.converged = false;
     r.outcome = Outcome::Stalled;
     r.message = "the final state does not satisfy equilibrium at the full load (" + r.message + ")";
   }
-  total.converged = r.converged;
-  total.outcome = r.converged ? Outcome::Converged : r.outcome;
-  if (!r.converged && total.outcome == Outcome::Converged) total.outcome = Outcome::Stalled;
+  total.outcome = r.outcome;
+  total.usable = reached >= 1.0 && std::isfinite(total.residualNorm) && std::isfinite(e) && u.allFinite() &&
+                 r.outcome != Outcome::NumericalFailure && r.outcome != Outcome::InvalidProblem;
   total.unstable = r.unstable;
   total.roundoff = r.roundoff;
   total.roundoffFloor = r.roundoffFloor;

@@ -33,7 +33,9 @@
 //      round-off energy 8e-18 J, decrement one iteration earlier 4e-13 J);
 //   3. the Newton correction is below the resolution of every unknown
 //      (|d_i| <= 4 eps |u_i|) with an unmodified factorization.
-// Nothing here is tuned to a particular scene.
+// Nothing here is tuned to a particular scene. The Newton iteration itself is
+// the one energy minimizer of solver/minimizer.hh, which the backward-Euler
+// step (solver/dynamics.hh) shares.
 #pragma once
 
 #include <atomic>
@@ -79,20 +81,17 @@ struct CriticalPoint {
   double jump = 0.0;                // m, largest vertex displacement to the equilibrium beyond it
 };
 
-// Outcome of one Newton solve (one load step) or of a whole continuation.
-struct NewtonReport {
-  bool converged = false;  // outcome == Outcome::Converged
-  Outcome outcome = Outcome::NumericalFailure;
-  int iterations = 0;        // Newton iterations (all load steps)
+// Outcome of one Newton solve (one load step) or of a whole continuation:
+// the summary every solve reports (model/outcome.hh: outcome, usable state,
+// iterations, residual, load scale and factor, timings, message) and
+// Newton's own counters.
+struct NewtonReport : SolveSummary {
   int loadSteps = 0;         // load steps taken (1 without continuation), resumed runs included
   int resumes = 0;           // full-load runs resumed after their iteration limit (still progressing)
   bool progressing = false;  // stopped at the iteration limit while still descending steadily
   int factorizations = 0;
   int hessianModifications = 0;   // iterations that needed a diagonal shift
   int backtracks = 0;             // step halvings in line searches
-  double loadScale = 0.0;         // N
-  double residualNorm = 0.0;      // N, final
-  double relativeResidual = 0.0;  // residualNorm / loadScale
   bool roundoff = false;          // converged because the Newton correction reached round-off
   bool unstable = false;          // stopped at an equilibrium with negative curvature (a saddle: not converged)
   int negativePivots = 0;         // of the last factorization (0: stable)
@@ -100,15 +99,11 @@ struct NewtonReport {
   std::vector<CriticalPoint> criticalPoints;  // passed on the loading path, in load order
   int singularPivots = 0;         // of the last factorization: pivots at round-off (zero-stiffness modes)
   double roundoffFloor = 0.0;     // N, estimated force residual of round-off at the final state (rule 2 above)
-  double loadFactor = 1.0;        // load factor of the returned state (< 1: the full load was not reached)
   double smallestEigenvalue = std::numeric_limits<double>::quiet_NaN();  // N/m, when the path was lost (see below)
   int escapes = 0;                                                       // steps taken along negative curvature
   int chartUpdates = 0;  // iterations after which reference-frame charts moved
   double energy = 0.0;   // J, final
-  double timeSeconds = 0.0;
-  double assemblySeconds = 0.0, factorSeconds = 0.0;
   std::vector<double> residualHistory;  // relative residual per iteration
-  std::string message;                  // why it stopped
 };
 
 // Minimises the pose energy from state.u at state.loadFactor; the state's

@@ -103,21 +103,24 @@ RelaxationReport relaxEquilibrium(const PoseSystem& sys, const Design& design, E
   for (;;) {
     record(false);
     if (!std::isfinite(E) || !g.allFinite()) {
+      rep.outcome = Outcome::NumericalFailure;
       rep.message = "energy or forces are not finite";
       break;
     }
     if (n == 0 || res <= opt.tolerance * scale || res <= floorForce) {
-      rep.converged = true;
+      rep.outcome = Outcome::Converged;
       rep.message = n == 0                ? "no unknowns"
                     : scale <= floorForce ? "no load: rest configuration"
                                           : "force residual below tolerance";
       break;
     }
     if (rep.iterations >= opt.maxIterations) {
+      rep.outcome = Outcome::MaxIterations;
       rep.message = "iteration limit reached";
       break;
     }
     if (opt.timeLimit > 0 && since(t0) > opt.timeLimit) {
+      rep.outcome = Outcome::TimeLimit;
       rep.message = "time limit reached";
       break;
     }
@@ -194,6 +197,7 @@ RelaxationReport relaxEquilibrium(const PoseSystem& sys, const Design& design, E
     if (h < opt.minStep) {
       std::ostringstream os;
       os << "pseudo-time step fell below " << opt.minStep << " (unstable cycles)";
+      rep.outcome = Outcome::Stalled;
       rep.message = os.str();
       break;
     }
@@ -203,6 +207,7 @@ RelaxationReport relaxEquilibrium(const PoseSystem& sys, const Design& design, E
   rep.residualNorm = res;
   rep.relativeResidual = scale > 0 ? res / scale : res;
   rep.energy = E;
+  rep.usable = rep.outcome != Outcome::NumericalFailure && std::isfinite(E) && u.allFinite();
   rep.timeSeconds = since(t0);
   uInOut = u;
   if (chartsOut) *chartsOut = std::move(state.charts);

@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "model/outcome.hh"
 #include "model/pose_system.hh"
 
 namespace rodmesh {
@@ -55,24 +56,19 @@ struct RelaxationOptions {
   std::string isValid() const;  // empty if valid, else what is wrong
 };
 
-struct RelaxationReport {
-  bool converged = false;
-  int iterations = 0;     // force evaluations
+// A relaxation: the summary every solve reports (model/outcome.hh;
+// iterations are force evaluations) and the relaxation's own counters.
+struct RelaxationReport : SolveSummary {
   int restarts = 0;       // kinetic-energy peaks
   int instabilities = 0;  // cycles restarted with a halved step
   int massUpdates = 0;
   int chartUpdates = 0;
   double finalStep = 0.0;     // pseudo-time step at the end
-  double loadScale = 0.0;     // N
-  double residualNorm = 0.0;  // N, final
-  double relativeResidual = 0.0;
   double energy = 0.0;  // J, final
-  double timeSeconds = 0.0;
   // Residual history: relative residual, at iteration, at elapsed seconds.
   std::vector<double> residualHistory;
   std::vector<int> historyIteration;
   std::vector<double> historySeconds;
-  std::string message;
 };
 
 // Full static solve of one pose at load factor 1 from u (use

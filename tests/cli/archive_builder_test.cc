@@ -77,10 +77,17 @@ class ArchiveBuilderTest : public ::testing::Test {
     for (std::size_t p = 0; p < sim.poses.size(); ++p) {
       const ArchivePose& s = sim.poses[p];
       cli::PoseSolveSummary solve;
-      solve.status = s.status;
-      solve.residualNorm = s.residualNorm;
-      solve.iterations = s.iterations;
-      solve.timeSeconds = s.timeSeconds;
+      if (!s.status.empty()) {
+        // An outcome that archiveStatus maps to the archived status.
+        SolveSummary sum;
+        sum.outcome = s.status == "converged"       ? Outcome::Converged
+                      : s.status == "not_converged" ? Outcome::MaxIterations
+                                                    : Outcome::NumericalFailure;
+        sum.residualNorm = s.residualNorm;
+        sum.iterations = s.iterations;
+        sum.timeSeconds = s.timeSeconds;
+        solve.solve = sum;
+      }
       solve.outOfPlaneStable = s.outOfPlaneStable;
       b.poses.push_back(cli::makeArchivePose(s.name, rows3(s.positions), s.twist.size() ? &s.twist : nullptr,
                                              scene.poses[p].target, solve));

@@ -661,7 +661,7 @@ TEST_F(HardStatics, LoadsBeyondDoublePrecisionFail) {
     const SimulationResult sim = simulateAll(model, Design::fromScene(s), NewtonOptions{});
     ASSERT_EQ(sim.poses.size(), 1u);
     EXPECT_EQ(sim.poses[0].report.outcome, Outcome::NumericalFailure) << sim.poses[0].report.message;
-    EXPECT_FALSE(sim.poses[0].report.converged);
+    EXPECT_FALSE(sim.poses[0].report.converged());
     for (int v = 0; v < 11; ++v) EXPECT_EQ(sim.poses[0].positions[v], s.vertices[v]);
   }
 }

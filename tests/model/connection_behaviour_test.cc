@@ -203,7 +203,7 @@ TEST(ConnectionWindmill, AxisTwistBendsTheBladesInTheDirectionOfRotation) {
   Windmill w;
   Scene s = w.scene();
   const Solved r = solve(s, kWindmillTolerance);
-  ASSERT_TRUE(r.report.converged) << r.report.message;
+  ASSERT_TRUE(r.report.converged()) << r.report.message;
   ASSERT_TRUE(r.effects.has(Effect::Connections)) << r.effects.explain();  // inferred: the mesh has connections
   ASSERT_TRUE(r.effects.has(Effect::Twist)) << r.effects.explain();
 
@@ -277,7 +277,7 @@ TEST(ConnectionWindmill, ThickerAxisPassesMoreOfTheSameTwistToTheBlades) {
       w.na = w.nb = ns[i];
       Scene s = w.scene();
       const Solved r = solve(s, kWindmillTolerance);
-      ASSERT_TRUE(r.report.converged) << r.report.message;
+      ASSERT_TRUE(r.report.converged()) << r.report.message;
       c.torque[i] = w.axisTorque(r) / w.torque();
       c.mid[i] = w.midDeflection(s, r, 0) / w.midDeflection();
       const std::string tag = std::string(c.r < 2e-3 ? "thin" : "thick") + "_n" + std::to_string(ns[i]);
@@ -311,7 +311,7 @@ TEST(ConnectionWindmill, WithoutTheConnectionsEffectNoTwistReachesTheBlades) {
   w.connections = false;
   Scene s = w.scene();
   const Solved r = solve(s, kWindmillTolerance);
-  ASSERT_TRUE(r.report.converged) << r.report.message;
+  ASSERT_TRUE(r.report.converged()) << r.report.message;
   ASSERT_FALSE(r.effects.has(Effect::Connections)) << r.effects.explain();
   ASSERT_TRUE(r.effects.has(Effect::Twist));
   double worst = 0.0;
@@ -392,7 +392,7 @@ double lFrameError(const LFrame& f, int n1, int n2) {
   int tip = -1;
   const Scene s = f.scene(n1, n2, tip);
   const Solved r = solve(s, kLFrameTolerance);
-  EXPECT_TRUE(r.report.converged) << r.report.message;
+  EXPECT_TRUE(r.report.converged()) << r.report.message;
   EXPECT_TRUE(r.effects.has(Effect::Connections));
   EXPECT_TRUE(r.effects.has(Effect::Twist));
   const Vec3 d = r.x[tip] - s.vertices[tip];
@@ -709,7 +709,7 @@ void expectHexPatchConverges(const std::vector<Vec3>& dirs, bool inPlane, const 
   for (int i = 0; i < 4; ++i) {
     const Scene s = h.scene(ns[i], F);
     const Solved r = solve(s, kHexTolerance);
-    ASSERT_TRUE(r.report.converged) << r.report.message;
+    ASSERT_TRUE(r.report.converged()) << r.report.message;
     ASSERT_TRUE(r.effects.has(Effect::Connections));
     EXPECT_EQ(r.effects.planar, inPlane) << r.effects.explain();
     err[i] = jointError(h, s, r, u);
@@ -748,7 +748,7 @@ TEST(ConnectionHexPatch, InPlaneLoadsGiveTheSameAnswerInFull3D) {
   const Solved planar = solve(s, kHexTolerance);
   s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Twist, Effect::Connections};
   const Solved full = solve(s, kHexTolerance);
-  ASSERT_TRUE(planar.report.converged && full.report.converged);
+  ASSERT_TRUE(planar.report.converged() && full.report.converged());
   ASSERT_TRUE(planar.effects.planar);
   ASSERT_FALSE(full.effects.planar);
   double diff = 0, disp = 0;

@@ -84,7 +84,7 @@ double tipDeflection(double gap, double force, double distance, double stiffness
   const Design design = Design::fromScene(s);
   PoseState state = sys.restState(design);
   const NewtonReport r = solveEquilibrium(sys, design, state, NewtonOptions{});
-  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_TRUE(r.converged()) << r.message;
   return -sys.positions(state, design)[kEdges].z();
 }
 

@@ -58,7 +58,7 @@ std::unique_ptr<Fixture> makeProblem(bool planar, const DesignPhase* phaseIn = n
     const PoseSystem& sys = f->model->pose(k);
     PoseState s = sys.restState(d0);
     const NewtonReport r = solveEquilibrium(sys, d0, s, NewtonOptions{});
-    EXPECT_TRUE(r.converged) << r.message;
+    EXPECT_TRUE(r.converged()) << r.message;
     states.push_back(s);
     sc.load.push_back(loadScale(sys, d0));
   }

@@ -36,7 +36,7 @@ std::vector<PoseState> initialEquilibria(const SceneModel& model, const Design& 
   for (int k = 0; k < model.numPoses(); ++k) {
     PoseState s = model.pose(k).restState(d);
     const NewtonReport r = solveEquilibrium(model.pose(k), d, s, NewtonOptions{});
-    EXPECT_TRUE(r.converged) << "pose " << k;
+    EXPECT_TRUE(r.converged()) << "pose " << k;
     states.push_back(s);
   }
   return states;

@@ -77,7 +77,7 @@ TEST(LoadingPath, APoseWithNothingAppliedIsNoLoad) {
   const double scale = loadScale(sys, d);
   ASSERT_GT(scale, 0.0) << "the rest shape's round-off must be there for this test";
   const NewtonReport r = solveEquilibrium(sys, d, s, NewtonOptions{});
-  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_TRUE(r.converged()) << r.message;
   EXPECT_EQ(r.loadSteps, 0) << r.message;
   EXPECT_EQ(r.message, "no load: rest configuration");
   EXPECT_EQ(s.loadFactor, 1.0);
@@ -158,7 +158,7 @@ TEST(DesignFallback, DesignWhoseEquilibriaAreNotTheLoadingPathsIsMarkedOffThePat
   PoseState inverted = sys.restState(r.design);
   inverted.u = sys.dofsFrom(mirrored, Eigen::VectorXd());
   inverted.loadFactor = 1.0;
-  ASSERT_TRUE(solveEquilibrium(sys, r.design, inverted, NewtonOptions{}).converged);
+  ASSERT_TRUE(solveEquilibrium(sys, r.design, inverted, NewtonOptions{}).converged());
   const std::vector<Vec3> down = sys.positions(inverted, r.design);
   ASSERT_LT(down[20].z(), -0.04);
   s.poses[0].target = down;
@@ -178,7 +178,7 @@ TEST(DesignFallback, DesignWhoseEquilibriaAreNotTheLoadingPathsIsMarkedOffThePat
 
   // The loading path's own equilibrium as the optimizer's: on the path.
   PoseState up = sys.restState(r.design);
-  ASSERT_TRUE(solveEquilibrium(sys, r.design, up, NewtonOptions{}).converged);
+  ASSERT_TRUE(solveEquilibrium(sys, r.design, up, NewtonOptions{}).converged());
   r.states = {up};
   const ArchivedDesign b = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
   EXPECT_FALSE(b.offPath) << b.note;

@@ -109,7 +109,7 @@ class DesignMonitorTest : public testing::Test {
     ASSERT_GT(initialObjective_, 0.0);
     for (int k = 0; k < model_->numPoses(); ++k) {
       PoseState s = model_->pose(k).restState(d0);
-      ASSERT_TRUE(solveEquilibrium(model_->pose(k), d0, s, NewtonOptions{}).converged);
+      ASSERT_TRUE(solveEquilibrium(model_->pose(k), d0, s, NewtonOptions{}).converged());
       warm_.push_back(s);
     }
   }

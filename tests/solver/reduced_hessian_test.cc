@@ -116,7 +116,7 @@ TEST_P(ReducedHessianProduct, GaussNewtonIsTheSquaredPositionJacobian) {
       const PoseSystem& sys = model_->pose(k);
       PoseState st = states0[k];
       const NewtonReport rep = solveEquilibrium(sys, d, st, newton_);
-      EXPECT_TRUE(rep.converged);
+      EXPECT_TRUE(rep.converged());
       x.push_back(sys.positions(st, d));
     }
     return x;

@@ -87,7 +87,7 @@ SimulationResult solveAll(const Scene& s, double& seconds) {
   SimulationResult r = simulateAll(model, Design::fromScene(s), NewtonOptions{});
   seconds = 0.0;
   for (const PoseResult& p : r.poses) {
-    EXPECT_TRUE(p.report.converged) << p.name << ": " << p.report.message;
+    EXPECT_TRUE(p.report.converged()) << p.name << ": " << p.report.message;
     seconds += p.report.timeSeconds;
   }
   EXPECT_TRUE(r.allConverged);

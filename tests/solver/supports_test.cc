@@ -14,7 +14,7 @@ TEST(Supports, UnbalancedLoadWithoutSupportsIsReportedNotConverged) {
   SceneModel model(s);
   const SimulationResult r = simulateAll(model, Design::fromScene(s), NewtonOptions{});
   EXPECT_FALSE(r.allConverged);
-  EXPECT_FALSE(r.poses[0].report.converged);
+  EXPECT_FALSE(r.poses[0].report.converged());
   EXPECT_NE(r.poses[0].report.message.find("no static equilibrium"), std::string::npos) << r.poses[0].report.message;
   EXPECT_GT(r.poses[0].report.residualNorm, 0.0);
 }

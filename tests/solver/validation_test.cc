@@ -100,7 +100,7 @@ double relativeTipDeflection(const RodSpec& rod, int edges, const Vec3& dir, dou
   const double P = alpha * EI / (rod.L * rod.L);
   s.poses[0].forces.push_back(PointForce{tipVertex(s), P * dir});
   const Solved r = solve(s, kSmallLoadTolerance);
-  EXPECT_TRUE(r.report.converged) << r.report.message;
+  EXPECT_TRUE(r.report.converged()) << r.report.message;
   const Vec3 d = r.x[tipVertex(s)] - s.vertices[tipVertex(s)];
   if (tipShift) *tipShift = d;
   const double exact = P * std::pow(rod.L, 3) / (3.0 * EI);
@@ -148,7 +148,7 @@ TEST(ValidationCantilever, ObliqueTipLoadIn3DSplitsAlongSectionAxes) {
   const double Pz = 3e-3 * rod.EIout() / (rod.L * rod.L), Py = 3e-3 * rod.EIin() / (rod.L * rod.L);
   s.poses[0].forces.push_back(PointForce{tipVertex(s), Vec3(0.0, Py, -Pz)});
   const Solved r = solve(s, kSmallLoadTolerance);
-  ASSERT_TRUE(r.report.converged) << r.report.message;
+  ASSERT_TRUE(r.report.converged()) << r.report.message;
   EXPECT_FALSE(r.effects.planar);
   EXPECT_TRUE(r.effects.has(Effect::Twist));
   const Vec3 d = r.x[tipVertex(s)] - s.vertices[tipVertex(s)];
@@ -173,7 +173,7 @@ TEST(ValidationCantilever, SelfWeightMatchesUniformLoadFormula) {
     const Vec3 dir = alongNormal ? Vec3(-Vec3::UnitZ()) : Vec3(Vec3::UnitY());
     s.gravity = g * dir;
     const Solved r = solve(s, kSmallLoadTolerance);
-    ASSERT_TRUE(r.report.converged) << r.report.message;
+    ASSERT_TRUE(r.report.converged()) << r.report.message;
     ASSERT_TRUE(r.effects.has(Effect::Gravity));
     const double EI = alongNormal ? stiffness::bendingOut(E, rt, rn) : stiffness::bendingIn(E, rt, rn);
     const double q = rho * kPi * rt * rn * g;
@@ -272,7 +272,7 @@ TEST(ValidationElastica, LargeDeflectionTipLoadMatchesShootingReference) {
     Scene s = rod.scene(N);
     s.poses[0].forces.push_back(PointForce{tipVertex(s), Vec3(0.0, 0.0, -P)});
     const Solved r = solve(s, kLargeLoadTolerance);
-    ASSERT_TRUE(r.report.converged) << r.report.message;
+    ASSERT_TRUE(r.report.converged()) << r.report.message;
     tips.push_back(r.x[tipVertex(s)] / rod.L);
   }
   // Discretization error is O(1/N^2); the linear analysis puts it at 1/(2 N^2)
@@ -349,7 +349,7 @@ TEST(ValidationBuckling, BelowCriticalLoadLateralDeflectionFollowsLinearAmplific
   const double ratio = 0.8, eps = 1e-3;
   Scene s;
   const Solved r = solveColumn(rod, N, ratio, eps, s);
-  ASSERT_TRUE(r.report.converged) << r.report.message;
+  ASSERT_TRUE(r.report.converged()) << r.report.message;
   // Beam-column: w'' + k^2 w = k^2 delta + (F/EI)(L - s), w(0) = w'(0) = 0,
   // gives delta = (F / (P k)) (tan kL - kL), k = sqrt(P/EI); here it is about
   // 5 times the unloaded-column value F L^3 / (3 EI).
@@ -377,7 +377,7 @@ TEST(ValidationBuckling, AboveCriticalLoadTipAngleFollowsPostBucklingElastica) {
   for (int N : Ns) {
     Scene s;
     const Solved r = solveColumn(rod, N, ratio, eps, s);
-    ASSERT_TRUE(r.report.converged) << r.report.message;
+    ASSERT_TRUE(r.report.converged()) << r.report.message;
     const int tip = tipVertex(s);
     const Vec3 t = (r.x[tip] - r.x[tip - 1]).normalized();  // last edge, s = L - h/2
     EXPECT_NEAR(t.y(), 0.0, 1e-12);
@@ -412,7 +412,7 @@ TEST(ValidationTorsion, EndMomentTwistsLinearlyAlongTheRod) {
   const double M = 0.8 * GJ / rod.L;  // 0.8 rad of twist at the tip
   s.poses[0].twistingMoments.push_back(TwistingMoment{tipVertex(s), M});
   const Solved r = solve(s);
-  ASSERT_TRUE(r.report.converged) << r.report.message;
+  ASSERT_TRUE(r.report.converged()) << r.report.message;
   EXPECT_FALSE(r.effects.planar);
   ASSERT_TRUE(r.effects.has(Effect::Twist));
   ASSERT_EQ(r.theta.size(), N);
@@ -449,7 +449,7 @@ TEST(ValidationTorsion, TwistSignIsRightHandedAboutTheOutwardTangent) {
   const double M = 0.5 * GJ / rod.L;
   s.poses[0].twistingMoments.push_back(TwistingMoment{0, M});
   const Solved r = solve(s);
-  ASSERT_TRUE(r.report.converged) << r.report.message;
+  ASSERT_TRUE(r.report.converged()) << r.report.message;
   const double h = rod.L / N;
   for (int e = 0; e < N; ++e) {
     const double distFromClamp = rod.L - (e + 0.5) * h;
@@ -490,7 +490,7 @@ TEST(ValidationConvergence, TipDeflectionErrorFallsAtSecondOrder) {
 void expectSameEquilibrium(Scene s, double length, int edges) {
   ASSERT_FALSE(s.effects.has_value());
   const Solved reduced = solve(s);
-  ASSERT_TRUE(reduced.report.converged) << reduced.report.message;
+  ASSERT_TRUE(reduced.report.converged()) << reduced.report.message;
   ASSERT_TRUE(reduced.effects.planar) << reduced.effects.explain();
   ASSERT_FALSE(reduced.effects.has(Effect::Twist));
 
@@ -498,7 +498,7 @@ void expectSameEquilibrium(Scene s, double length, int edges) {
   if (s.gravity) all.push_back(Effect::Gravity);
   s.effects = all;
   const Solved full = solve(s);
-  ASSERT_TRUE(full.report.converged) << full.report.message;
+  ASSERT_TRUE(full.report.converged()) << full.report.message;
   ASSERT_FALSE(full.effects.planar);
   ASSERT_TRUE(full.effects.has(Effect::Twist));
 
@@ -575,7 +575,7 @@ TEST(ValidationSolver, DefaultToleranceIsAttainableOnModerateCantileverLoad) {
   Scene s = rod.scene(N);
   s.poses[0].forces.push_back(PointForce{tipVertex(s), Vec3(0.0, 0.0, -P)});
   const Solved r = solve(s);
-  EXPECT_TRUE(r.report.converged) << r.report.message << " (relative residual " << r.report.relativeResidual
+  EXPECT_TRUE(r.report.converged()) << r.report.message << " (relative residual " << r.report.relativeResidual
                                   << ", " << r.report.iterations << " iterations, " << r.report.loadSteps
                                   << " load steps)";
   // Whatever the status, the returned state should be the full-load
@@ -583,7 +583,7 @@ TEST(ValidationSolver, DefaultToleranceIsAttainableOnModerateCantileverLoad) {
   // gives it to ~1e-7 of the 0.3 L deflection. A state at load factor 0.999
   // would be 3e-4 L away.
   const Solved ok = solve(s, kLargeLoadTolerance);
-  ASSERT_TRUE(ok.report.converged) << ok.report.message;
+  ASSERT_TRUE(ok.report.converged()) << ok.report.message;
   EXPECT_NEAR(r.x[tipVertex(s)].z(), ok.x[tipVertex(s)].z(), 1e-6 * rod.L);
 }
 
