@@ -89,17 +89,23 @@ class InterruptCliTest : public ::testing::Test {
     return pid;
   }
 
-  // True once process `pid` writes its archive: it holds an unnamed file
-  // (O_TMPFILE) in the working directory open, or out.h5.tmp.PID exists
-  // (file systems without O_TMPFILE).
+  // True once process `pid` writes its archive: it holds a non-empty unnamed
+  // file (O_TMPFILE) in the working directory open, or out.h5.tmp.PID exists
+  // (file systems without O_TMPFILE). Non-empty: at start-up the command
+  // probes the output directory with an empty unnamed file of its own
+  // (apps/cli_common.cc), which is not the archive; a signal sent then meets
+  // no write guard.
   bool writing(pid_t pid) const {
     const std::string fdDir = "/proc/" + std::to_string(pid) + "/fd";
+    struct stat st;
     for (const std::string& fd : clitest::listFiles(fdDir)) {
       char target[4096];
-      const ssize_t n = readlink((fdDir + "/" + fd).c_str(), target, sizeof target - 1);
-      if (n > 0 && std::string(target, n).rfind(dir_ + "/#", 0) == 0) return true;
+      const std::string link = fdDir + "/" + fd;
+      const ssize_t n = readlink(link.c_str(), target, sizeof target - 1);
+      if (n > 0 && std::string(target, n).rfind(dir_ + "/#", 0) == 0 && ::stat(link.c_str(), &st) == 0 &&
+          st.st_size > 0)
+        return true;
     }
-    struct stat st;
     return ::stat((dir_ + "/out.h5.tmp." + std::to_string(pid)).c_str(), &st) == 0;
   }
 
