@@ -269,7 +269,7 @@ Archive optimizeArchive(const Scene& scene, const SceneModel& model, const Desig
   s.method = method;
   s.iterations = r.iterations;
   s.timeSeconds = r.timeSeconds;
-  s.message = r.status.message;
+  s.message = r.message;
   s.evaluationSeconds = r.evaluationSeconds;
   s.solverSeconds = r.solverSeconds;
   s.peakMemoryBytes = r.peakMemoryBytes;
@@ -287,8 +287,8 @@ Archive optimizeArchive(const Scene& scene, const SceneModel& model, const Desig
         "the scene was inferred planar and optimized in plane, but an in-plane equilibrium of the archived design "
         "was unstable out of plane; its poses were solved again in 3D with twist";
   const bool converged =
-      r.status.converged() && chosen.allConverged && !chosen.fallback && !chosen.offPath && !chosen.outOfPlane;
-  a.status = converged ? "converged" : (r.status.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
+      r.converged() && chosen.allConverged && !chosen.fallback && !chosen.offPath && !chosen.outOfPlane;
+  a.status = converged ? "converged" : (r.outcome == Outcome::NumericalFailure ? "failed" : "not_converged");
   return a;
 }
 

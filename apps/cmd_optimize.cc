@@ -235,7 +235,8 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     auto watchdogWrite = [&](const ConfirmedDesign& d, const ConfirmedDesign* initial,
                              const std::vector<DesignIterate>& history, const std::string& message) {
       DesignOptimizerResult wr;
-      wr.status = {interruptRequested() ? Outcome::Interrupted : Outcome::TimeLimit, message};
+      wr.outcome = interruptRequested() ? Outcome::Interrupted : Outcome::TimeLimit;
+      wr.message = message;
       wr.controls = d.controls;
       wr.design = d.design;
       wr.history = history;

@@ -95,7 +95,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
                            : optimizeReduced(model, space, o.optimizer, progress);
 #endif
   if (!quiet) {
-    std::cerr << "optimizer: " << outcomeName(r.status.outcome) << " (" << r.status.message << "), " << r.iterations
+    std::cerr << "optimizer: " << outcomeName(r.outcome) << " (" << r.message << "), " << r.iterations
               << " iterations, " << r.evaluations << " evaluations, " << formatSeconds(r.timeSeconds) << "\n";
     std::fprintf(stderr, "time: %.2f s in model evaluations, %.2f s in the optimizer%s; peak memory %.1f MiB\n",
                  r.evaluationSeconds, r.solverSeconds, o.method == "sand" ? " (Ipopt, MUMPS)" : "",

@@ -88,7 +88,19 @@ class DesignDriver {
 
  private:
   DesignOptimizerResult finish(Outcome o, const std::string& message) {
-    res_.status = {o, message};
+    res_.outcome = o;
+    res_.message = message;
+    // The result's equilibria: their largest force residual, and whether
+    // there is one finite equilibrium per pose to use.
+    res_.usable = static_cast<int>(res_.states.size()) == model_.numPoses();
+    res_.residualNorm = 0.0;
+    for (int k = 0; res_.usable && k < model_.numPoses(); ++k) {
+      Eigen::VectorXd g;
+      model_.pose(k).evaluate(res_.states[k], res_.design, &g, nullptr);
+      const double r = model_.pose(k).forceResidual(g).norm();
+      res_.usable = std::isfinite(r) && res_.states[k].u.allFinite() && res_.states[k].loadFactor == 1.0;
+      res_.residualNorm = std::max(res_.residualNorm, r);
+    }
     res_.timeSeconds = since(t0_);
     res_.solverSeconds = std::max(0.0, res_.timeSeconds - res_.evaluationSeconds);
     res_.peakMemoryBytes = peakResidentMemory();

@@ -163,16 +163,18 @@ struct DesignIterate {
   int confirmedIteration = -1;
 };
 
-struct DesignOptimizerResult {
-  Status status;
+// What an optimizer run reports: the summary every solve reports
+// (model/outcome.hh: outcome, whether the design is usable, iterations,
+// residualNorm = the largest force residual of the result's equilibria (N),
+// wall time, message) and the design, its equilibria and the run's history.
+struct DesignOptimizerResult : SolveSummary {
   ControlValues controls;                // final (best) design
   Design design;
   std::vector<PoseState> states;         // the optimizer's own equilibria under `design`
   std::vector<std::vector<Vec3>> initialPositions;  // equilibria under the initial design
   double initialObjective = 0.0, initialRms = 0.0;
   double objective = 0.0, rms = 0.0;
-  int iterations = 0, evaluations = 0, failedEvaluations = 0, equilibriumRestarts = 0;
-  double timeSeconds = 0.0;
+  int evaluations = 0, failedEvaluations = 0, equilibriumRestarts = 0;
   double evaluationSeconds = 0.0;       // in model evaluations (objective, equilibria, derivatives)
   double solverSeconds = 0.0;           // in the optimizer itself (SAND: Ipopt and MUMPS)
   long peakMemoryBytes = 0;             // peak resident memory of the process at the end

@@ -284,7 +284,7 @@ TEST(SandIpopt, DerivativeCheckerReportsNoErrors) {
     EXPECT_NE(text.find("Starting derivative checker for second derivatives"), std::string::npos) << text;
     EXPECT_NE(text.find("No errors detected by derivative checker"), std::string::npos)
         << (planar ? "planar: " : "spatial: ") << text.substr(0, 6000);
-    EXPECT_NE(r.status.outcome, Outcome::InvalidProblem) << r.status.message;
+    EXPECT_NE(r.outcome, Outcome::InvalidProblem) << r.message;
   }
 }
 

@@ -23,7 +23,7 @@ TEST(SandFallback, KeepsItsPhaseDesignsAndArchivesOneThatResolvesFromRest) {
   o.optimizer.maxIterations = 200;
   o.optimizer.newton = testutil::fallbackCaseNewton();
   const DesignOptimizerResult r = optimizeSand(model, space, o);
-  SCOPED_TRACE(r.status.message);
+  SCOPED_TRACE(r.message);
   ASSERT_FALSE(r.fallbacks.empty());
   for (std::size_t i = 0; i < r.fallbacks.size(); ++i) {
     // Phase ends, and the BFGS iterates that start the first phase

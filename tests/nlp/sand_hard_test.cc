@@ -26,12 +26,12 @@ void checkClean(const Scene& scene, const HardCase& c) {
   o.readOptionsFile = false;
   o.optimizer.maxIterations = 150;
   const DesignOptimizerResult r = optimizeSand(model, space, o);
-  SCOPED_TRACE(c.name + ": " + outcomeName(r.status.outcome) + ": " + r.status.message);
-  EXPECT_FALSE(r.status.message.empty());
-  if (r.status.outcome == Outcome::NumericalFailure && r.iterations == 0) {
+  SCOPED_TRACE(c.name + ": " + outcomeName(r.outcome) + ": " + r.message);
+  EXPECT_FALSE(r.message.empty());
+  if (r.outcome == Outcome::NumericalFailure && r.iterations == 0) {
     // A clean refusal: the initial design has no equilibrium to start from.
     EXPECT_FALSE(c.mustImprove);
-    EXPECT_NE(r.status.message.find("initial design"), std::string::npos);
+    EXPECT_NE(r.message.find("initial design"), std::string::npos);
     return;
   }
   ASSERT_TRUE(std::isfinite(r.objective));

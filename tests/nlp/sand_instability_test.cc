@@ -106,8 +106,8 @@ void expectClean(const Scene& scene, Method method, bool recover) {
     o.maxIterations = 200;
     r = optimizeReduced(model, space, o);
   }
-  SCOPED_TRACE(outcomeName(r.status.outcome) + std::string(": ") + r.status.message);
-  EXPECT_FALSE(r.status.message.empty());
+  SCOPED_TRACE(outcomeName(r.outcome) + std::string(": ") + r.message);
+  EXPECT_FALSE(r.message.empty());
   ASSERT_TRUE(std::isfinite(r.objective) && std::isfinite(r.rms));
   EXPECT_LE(r.objective, r.initialObjective * (1 + 1e-12));
   for (const Vec2& rr : r.design.radii) {

@@ -79,8 +79,8 @@ TEST(SandLoadScales, AppliedLoadsWhereNoSupportIsDisplaced) {
 // below half its initial RMS, the bulge (out of reach of radii) no worse.
 void checkOtherModelRun(const char* method, const SceneModel& model, const DesignSpace& space,
                         const DesignOptimizerResult& r) {
-  SCOPED_TRACE(std::string(method) + ": " + outcomeName(r.status.outcome) + ": " + r.status.message);
-  EXPECT_EQ(r.status.outcome, Outcome::Converged);
+  SCOPED_TRACE(std::string(method) + ": " + outcomeName(r.outcome) + ": " + r.message);
+  EXPECT_EQ(r.outcome, Outcome::Converged);
   ASSERT_TRUE(std::isfinite(r.objective) && std::isfinite(r.rms));
   for (const DesignIterate& it : r.history)
     ASSERT_TRUE(std::isfinite(it.objective) && std::isfinite(it.rms) && std::isfinite(it.constraintViolation));

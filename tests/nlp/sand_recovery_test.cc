@@ -49,11 +49,11 @@ TEST_P(SandRecovery, EndsBelowFivePercentOfTheDefaultDesignsRms) {
   o.readOptionsFile = false;
   o.optimizer.maxIterations = 400;
   const DesignOptimizerResult r = optimizeSand(model, space, o);
-  ASSERT_NE(r.status.outcome, Outcome::NumericalFailure) << r.status.message;
+  ASSERT_NE(r.outcome, Outcome::NumericalFailure) << r.message;
   ASSERT_GT(r.initialRms, 1e-4) << "the hidden design must differ visibly from the default one";
   const double rms = resolvedRms(model, pr.scene, r.design);
   EXPECT_LT(rms, 0.05 * r.initialRms) << "initial " << r.initialRms << " m, final " << rms << " m, "
-                                      << outcomeName(r.status.outcome) << ": " << r.status.message;
+                                      << outcomeName(r.outcome) << ": " << r.message;
   // The optimizer's own RMS is that of true equilibria of its design.
   EXPECT_NEAR(rms, r.rms, 1e-6 * r.initialRms);
   for (const Vec2& rr : r.design.radii) {
@@ -81,7 +81,7 @@ TEST(SandRecovery, LevelsScheduleEndsWithOneJointPhaseAndRecovers) {
   const DesignSpace space(pr.scene, model.effects());
   SandOptions o = recoveryOptions(Schedule::Levels);
   const DesignOptimizerResult r = optimizeSand(model, space, o);
-  ASSERT_NE(r.status.outcome, Outcome::NumericalFailure) << r.status.message;
+  ASSERT_NE(r.outcome, Outcome::NumericalFailure) << r.message;
   int joint = 0;
   for (const DesignIterate& it : r.history) {
     EXPECT_NE(it.phase, "rest_shape");
@@ -90,7 +90,7 @@ TEST(SandRecovery, LevelsScheduleEndsWithOneJointPhaseAndRecovers) {
   EXPECT_GT(joint, 0);
   EXPECT_EQ(r.history.back().phase, "joint");
   const double rms = resolvedRms(model, pr.scene, r.design);
-  EXPECT_LT(rms, 0.05 * r.initialRms) << r.status.message;
+  EXPECT_LT(rms, 0.05 * r.initialRms) << r.message;
 }
 
 // A phase whose Ipopt iterates leave equilibrium (forced here: any
@@ -106,10 +106,10 @@ TEST(SandRecovery, ADivergedPhaseIsRunAgainByNewtonCg) {
   o.warmupIterations = 0;
   o.divergedLoads = 1e-12;
   const DesignOptimizerResult r = optimizeSand(model, space, o);
-  EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
-  EXPECT_NE(r.status.message.find("run again by the reduced Newton-CG method"), std::string::npos) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
+  EXPECT_NE(r.message.find("run again by the reduced Newton-CG method"), std::string::npos) << r.message;
   const double rms = resolvedRms(model, pr.scene, r.design);
-  EXPECT_LT(rms, 0.05 * r.initialRms) << r.status.message;
+  EXPECT_LT(rms, 0.05 * r.initialRms) << r.message;
   // The retry's iterates are equilibria: no constraint violation recorded.
   int ipopt = 0, newton = 0;
   for (const DesignIterate& it : r.history) {
@@ -121,8 +121,8 @@ TEST(SandRecovery, ADivergedPhaseIsRunAgainByNewtonCg) {
 
   o.newtonRetry = false;
   const DesignOptimizerResult held = optimizeSand(model, space, o);
-  EXPECT_EQ(held.status.outcome, Outcome::Stalled) << held.status.message;
-  EXPECT_NE(held.status.message.find("also in its retry"), std::string::npos) << held.status.message;
+  EXPECT_EQ(held.outcome, Outcome::Stalled) << held.message;
+  EXPECT_NE(held.message.find("also in its retry"), std::string::npos) << held.message;
 }
 
 // With the rest shape free and default options, the run stays near
@@ -137,9 +137,9 @@ TEST(SandRecovery, RestShapeRunStaysNearEquilibriumFromTheBfgsStart) {
   const DesignSpace space(pr.scene, model.effects());
   SandOptions o = recoveryOptions(Schedule::Joint);
   const DesignOptimizerResult r = optimizeSand(model, space, o);
-  EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
-  EXPECT_EQ(r.status.message.find("left equilibrium"), std::string::npos) << r.status.message;
-  EXPECT_LT(resolvedRms(model, pr.scene, r.design), 1e-3 * r.initialRms) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
+  EXPECT_EQ(r.message.find("left equilibrium"), std::string::npos) << r.message;
+  EXPECT_LT(resolvedRms(model, pr.scene, r.design), 1e-3 * r.initialRms) << r.message;
 }
 
 TEST(SandRecovery, ThreadCountDoesNotChangeTheResult) {
@@ -167,7 +167,7 @@ TEST(SandRecovery, StopRequestEndsWithTheBestDesignSoFar) {
   int calls = 0;
   o.optimizer.stopRequested = [&] { return ++calls > 6; };
   const DesignOptimizerResult r = optimizeSand(model, space, o);
-  EXPECT_EQ(r.status.outcome, Outcome::Interrupted) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::Interrupted) << r.message;
   EXPECT_LE(r.objective, r.initialObjective);
   EXPECT_NEAR(resolvedRms(model, pr.scene, r.design), r.rms, 1e-6 * r.initialRms);
 }

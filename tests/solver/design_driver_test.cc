@@ -70,11 +70,24 @@ TEST(DesignDriver, KeepsABetterCandidateAndNotAWorseOne) {
   };
   const DesignOptimizerResult r = runDesign(c.model, c.space, driverOptions(), phases);
   ASSERT_EQ(phases.tasks.size(), 1u);
-  EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
   EXPECT_TRUE(sameControls(r.controls, better));
   EXPECT_LT(r.objective, r.initialObjective);
   EXPECT_EQ(r.iterations, 3);
   ASSERT_EQ(r.fallbacks.size(), 1u) << "the kept design joins the fallbacks";
+  // The run's summary: one finite equilibrium per pose at the full load, and
+  // the largest force residual among them.
+  EXPECT_TRUE(r.usable);
+  ASSERT_EQ(static_cast<int>(r.states.size()), c.model.numPoses());
+  double largest = 0.0;
+  for (int k = 0; k < c.model.numPoses(); ++k) {
+    Eigen::VectorXd g;
+    c.model.pose(k).evaluate(r.states[k], r.design, &g, nullptr);
+    largest = std::max(largest, c.model.pose(k).forceResidual(g).norm());
+  }
+  EXPECT_EQ(r.residualNorm, largest);
+  EXPECT_LT(r.residualNorm, 1e-6);
+  EXPECT_EQ(r.brief().rfind("converged after 3 iterations", 0), 0u) << r.brief();
 }
 
 TEST(DesignDriver, RetriesADivergedPhaseOnceThenStops) {
@@ -94,8 +107,8 @@ TEST(DesignDriver, RetriesADivergedPhaseOnceThenStops) {
   EXPECT_TRUE(phases.tasks[1].diverged) << "the phase solver is told why the phase runs again";
   EXPECT_EQ(phases.tasks[1].iterationBase, 2);
   EXPECT_EQ(phases.tasks[1].index, 0) << "the retry is the same phase";
-  EXPECT_EQ(r.status.outcome, Outcome::Stalled);
-  EXPECT_NE(r.status.message.find("left equilibrium"), std::string::npos) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::Stalled);
+  EXPECT_NE(r.message.find("left equilibrium"), std::string::npos) << r.message;
   EXPECT_TRUE(sameControls(r.controls, c.space.initialControls(c.scene)));
 }
 
@@ -111,9 +124,9 @@ TEST(DesignDriver, AFailedPhaseIsAFailedRunOnlyWithoutABetterDesign) {
       return r;
     };
     const DesignOptimizerResult r = runDesign(c.model, c.space, driverOptions(), phases);
-    EXPECT_EQ(r.status.outcome, improved ? Outcome::Stalled : Outcome::NumericalFailure) << r.status.message;
-    EXPECT_EQ(r.status.message.find("scripted failure"), 0u) << r.status.message;
-    EXPECT_EQ(r.status.message.find("was not kept") != std::string::npos, !improved) << r.status.message;
+    EXPECT_EQ(r.outcome, improved ? Outcome::Stalled : Outcome::NumericalFailure) << r.message;
+    EXPECT_EQ(r.message.find("scripted failure"), 0u) << r.message;
+    EXPECT_EQ(r.message.find("was not kept") != std::string::npos, !improved) << r.message;
   }
 }
 
@@ -137,8 +150,8 @@ TEST(DesignDriver, TargetsMetEndTheScheduleEarly) {
   const DesignOptimizerResult r = runDesign(c.model, c.space, o, phases);
   ASSERT_GT(designSchedule(c.scene, c.space, o).size(), 1u);
   EXPECT_EQ(phases.tasks.size(), 1u);
-  EXPECT_EQ(r.status.outcome, Outcome::Converged);
-  EXPECT_EQ(r.status.message, "every target met to round-off");
+  EXPECT_EQ(r.outcome, Outcome::Converged);
+  EXPECT_EQ(r.message, "every target met to round-off");
   EXPECT_LT(r.objective, 1e-12 * r.initialObjective);
   EXPECT_EQ(r.history.size(), 2u) << "initial + the scripted iterate";
 }
@@ -159,7 +172,7 @@ TEST(DesignDriver, LimitsStopBetweenPhases) {
   };
   const DesignOptimizerResult r = runDesign(c.model, c.space, o, phases);
   EXPECT_EQ(phases.tasks.size(), 1u);
-  EXPECT_EQ(r.status.outcome, Outcome::Interrupted);
+  EXPECT_EQ(r.outcome, Outcome::Interrupted);
 }
 
 // A phase whose design is the arch's own but whose equilibrium is the
@@ -191,7 +204,7 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
     return r;
   };
   const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
-  ASSERT_EQ(phases.tasks.size(), 2u) << r.status.message;
+  ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
   EXPECT_GT(phases.tasks[0].states[0].u.size(), 0);
   // The second attempt starts from the loading path's equilibrium: the arch up.
   const std::vector<Vec3> start = targeted.pose(0).positions(phases.tasks[1].states[0], d0);
@@ -199,9 +212,9 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
   const double invertedObjective = 0.5 * 41 * 1e-6;  // every vertex 1 mm off
   EXPECT_GT(phases.tasks[1].objective, 100 * invertedObjective) << "the path's objective, not the inverted one's";
   EXPECT_DOUBLE_EQ(r.objective, phases.tasks[1].objective) << "the result: the design with the path's equilibria";
-  EXPECT_EQ(r.status.outcome, Outcome::Stalled);
-  EXPECT_NE(r.status.message.find("off the loading path"), std::string::npos) << r.status.message;
-  EXPECT_NE(r.status.message.find("as loaded from rest"), std::string::npos) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::Stalled);
+  EXPECT_NE(r.message.find("off the loading path"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("as loaded from rest"), std::string::npos) << r.message;
   // The result's equilibria are the loading path's: the arch up.
   const std::vector<Vec3> own = targeted.pose(0).positions(r.states[0], d0);
   EXPECT_GT(own[20].z(), 0.0);
@@ -236,13 +249,13 @@ TEST(DesignDriver, ARunWorseOnThePathThanItsStartKeepsTheStart) {
     return r;
   };
   const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
-  ASSERT_EQ(phases.tasks.size(), 2u) << r.status.message;
+  ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
   ASSERT_GT(phases.tasks[1].objective, r.initialObjective)
       << "the thick arch from rest must be worse than the initial one for this test";
-  EXPECT_EQ(r.status.outcome, Outcome::Stalled) << r.status.message;
-  EXPECT_TRUE(sameControls(r.controls, c0)) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::Stalled) << r.message;
+  EXPECT_TRUE(sameControls(r.controls, c0)) << r.message;
   EXPECT_DOUBLE_EQ(r.objective, r.initialObjective);
-  EXPECT_NE(r.status.message.find("worse than the initial design"), std::string::npos) << r.status.message;
+  EXPECT_NE(r.message.find("worse than the initial design"), std::string::npos) << r.message;
   const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
   EXPECT_FALSE(a.offPath) << a.note;
   EXPECT_NEAR(a.rms, r.initialRms, 1e-9);
@@ -269,13 +282,13 @@ TEST(DesignDriver, ReducedRunOnTheArchEndsOnTheLoadingPath) {
   const DesignOptimizerResult r = optimizeReduced(model, space, o);
   const ArchivedDesign a = chooseArchivedDesign(model, space, r, NewtonOptions{});
   ASSERT_TRUE(a.allConverged);
-  if (r.status.outcome == Outcome::Converged) {
-    EXPECT_FALSE(a.offPath) << r.status.message << "; " << a.note;
+  if (r.outcome == Outcome::Converged) {
+    EXPECT_FALSE(a.offPath) << r.message << "; " << a.note;
   }
-  EXPECT_LT(a.simulation.poses[0].positions[20].z(), 0.0) << r.status.message << "; " << a.note;
-  EXPECT_LT(a.rms, 0.2 * r.initialRms) << r.status.message << "; " << a.note;
-  std::printf("arch, reduced: %s, %s; archived RMS %.3g mm (initial %.3g mm)\n", outcomeName(r.status.outcome),
-              r.status.message.c_str(), a.rms * 1e3, r.initialRms * 1e3);
+  EXPECT_LT(a.simulation.poses[0].positions[20].z(), 0.0) << r.message << "; " << a.note;
+  EXPECT_LT(a.rms, 0.2 * r.initialRms) << r.message << "; " << a.note;
+  std::printf("arch, reduced: %s, %s; archived RMS %.3g mm (initial %.3g mm)\n", outcomeName(r.outcome),
+              r.message.c_str(), a.rms * 1e3, r.initialRms * 1e3);
 }
 
 }  // namespace

@@ -206,8 +206,8 @@ TEST(DesignFallback, ReducedRunArchivesTheBestEarlierDesignThatResolvesFromRest)
   SceneModel model(s);
   const DesignSpace space(s, model.effects());
   const DesignOptimizerResult r = reducedRun(model, space, 60, newton);
-  SCOPED_TRACE(r.status.message);
-  ASSERT_NE(r.status.outcome, Outcome::NumericalFailure);
+  SCOPED_TRACE(r.message);
+  ASSERT_NE(r.outcome, Outcome::NumericalFailure);
   ASSERT_FALSE(r.fallbacks.empty());
   for (std::size_t i = 1; i < r.fallbacks.size(); ++i)
     EXPECT_LE(r.fallbacks[i - 1].objective, r.fallbacks[i].objective) << "best first";

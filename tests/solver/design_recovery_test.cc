@@ -33,10 +33,10 @@ TEST_P(DesignRecovery, CutsTheRmsErrorOfTheDefaultDesignTwentyfold) {
   DesignOptimizerOptions o;
   o.maxIterations = 400;
   const DesignOptimizerResult r = optimizeReduced(model, space, o);
-  ASSERT_NE(r.status.outcome, Outcome::NumericalFailure) << r.status.message;
+  ASSERT_NE(r.outcome, Outcome::NumericalFailure) << r.message;
   ASSERT_GT(r.initialRms, 1e-4) << "the hidden design must differ visibly from the default one";
   EXPECT_LT(r.rms, r.initialRms / 20.0) << "initial " << r.initialRms << " m, final " << r.rms << " m, "
-                                        << r.status.message;
+                                        << r.message;
   // Bounds hold at every vertex, and the final design's equilibria (re-solved
   // from rest) give the RMS the optimizer reports.
   for (const Vec2& rr : r.design.radii) {

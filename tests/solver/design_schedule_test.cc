@@ -91,7 +91,7 @@ TEST(DesignSchedule, EveryPhaseKeepsItsCapAndTheRoundLimitEndsTheRun) {
   const DesignOptimizerResult r = optimize(o);
   const std::vector<Segment> seg = segments(r.history);
   // Radii at levels 0, 1, 2, then three rounds of rest shape and radii.
-  ASSERT_EQ(seg.size(), 9u) << r.status.message;
+  ASSERT_EQ(seg.size(), 9u) << r.message;
   for (std::size_t i = 0; i < seg.size(); ++i) {
     SCOPED_TRACE(i);
     EXPECT_EQ(seg[i].phase, i < 3 || i % 2 == 0 ? "radii" : "rest_shape");
@@ -99,8 +99,8 @@ TEST(DesignSchedule, EveryPhaseKeepsItsCapAndTheRoundLimitEndsTheRun) {
     EXPECT_EQ(seg[i].iterations(), i < 3 ? 3 : 4) << "the cap, and nothing else, ends the phase";
   }
   EXPECT_EQ(r.iterations, 3 * 3 + 6 * 4) << "the last phase does not get the remaining iterations";
-  EXPECT_EQ(r.status.outcome, Outcome::MaxIterations);
-  EXPECT_NE(r.status.message.find("alternation limit"), std::string::npos) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::MaxIterations);
+  EXPECT_NE(r.message.find("alternation limit"), std::string::npos) << r.message;
 }
 
 TEST(DesignSchedule, APhaseEndsWhenTheObjectiveFellByLessThanTheRelativeDecreaseOverTheWindow) {
@@ -113,7 +113,7 @@ TEST(DesignSchedule, APhaseEndsWhenTheObjectiveFellByLessThanTheRelativeDecrease
   const DesignOptimizerResult r = optimize(o);
   const std::vector<DesignIterate>& h = r.history;
   const std::vector<Segment> seg = segments(h);
-  ASSERT_EQ(seg.size(), 7u) << r.status.message;
+  ASSERT_EQ(seg.size(), 7u) << r.message;
   int endedByWindow = 0;
   for (const Segment& s : seg) {
     SCOPED_TRACE(s.phase + " level " + std::to_string(s.level) + " from history entry " + std::to_string(s.first));
@@ -156,8 +156,8 @@ TEST(DesignSchedule, TheRunEndsWhenARoundLowersTheObjectiveByLessThanTheRoundThr
   o.maxAlternations = 20;
   o.roundRelativeDecrease = 0.5 * (gain[0] + gain[1]);
   const DesignOptimizerResult r = optimize(o);
-  EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
-  EXPECT_NE(r.status.message.find("round 2"), std::string::npos) << r.status.message;
+  EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
+  EXPECT_NE(r.message.find("round 2"), std::string::npos) << r.message;
   EXPECT_EQ(segments(r.history).size(), 3u + 2 * 2);
   EXPECT_EQ(r.iterations, seg[6].last) << "the same path as the run without the round test, up to round 2";
 }
@@ -187,7 +187,7 @@ TEST(DesignSchedule, LevelsEndsWithOneJointPhaseThatIsTheRestOfTheRun) {
   o.maxIterations = 20;
   const DesignOptimizerResult r = optimize(o);
   const std::vector<Segment> seg = segments(r.history);
-  ASSERT_EQ(seg.size(), 4u) << r.status.message;
+  ASSERT_EQ(seg.size(), 4u) << r.message;
   EXPECT_EQ(seg[3].phase, "joint");
   EXPECT_EQ(seg[3].iterations(), 20 - 3 * 3) << "the joint phase is not capped by maxPhaseIterations";
   EXPECT_LT(r.objective, r.initialObjective);
