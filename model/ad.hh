@@ -398,6 +398,10 @@ inline void addProductLifted(Hess<N, double>& acc, const Hess<N, double>& a, con
   // a_j b_l + a_l b_j: each ordered (j, slots[i]) once, the diagonal twice.
   for (int i = 0; i < M; ++i) {
     const int s = slots[i];
+    // A slot is one of a's variables. Said to the compiler, which cannot see
+    // it and otherwise warns (-Warray-bounds) about the negative slots it
+    // must assume possible.
+    if (s < 0 || s >= N) __builtin_unreachable();
     const double bi = b.g[i];
     for (int j = 0; j < N; ++j) acc.h[H::hidx(j, s)] += (j == s ? 2.0 : 1.0) * a.g[j] * bi;
     for (int l = 0; l <= i; ++l) acc.h[H::hidx(s, slots[l])] += a.v * b.h[Hess<M, double>::hidx(i, l)];
