@@ -118,8 +118,7 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h, double loadFactor) {
   {
     auto phi = [&](const Eigen::VectorXd& w) {
       at.u = w;
-      return sys_.energy(at, design_) +
-             0.5 * inertia.invH2 * (mass_.array() * (w - uPred).array().square()).sum();
+      return sys_.energy(at, design_) + inertia.energy(w);
     };
     const double phiPred = phi(uPred);
     const double phiCur = phi(u0);

@@ -1,5 +1,7 @@
 #include "solver/minimizer.hh"
 
+#include "solver/format.hh"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -23,12 +25,6 @@ constexpr double kCorrectionUlps = 4.0;
 // precision can represent in equilibrium (energies ~ stiffness x size^2 x
 // this^2 would overflow).
 constexpr double kAbsurdDisplacement = 1e100;
-
-std::string format(const char* fmt, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, a);
-  return buf;
-}
 
 // Phi's matrix for a time step: the energy Hessian's values with the inertia
 // diagonal added (same pattern; the Hessian's pattern has the full diagonal).
@@ -91,8 +87,7 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
   ModifiedLdlt& factor = ws.factor;
   // Phi and its gradient at a state (the Hessian of E when asked for).
   auto inertiaEnergy = [&](const Eigen::VectorXd& x) {
-    return inertia ? 0.5 * inertia->invH2 * (inertia->mass->array() * (x - inertia->predicted).array().square()).sum()
-                   : 0.0;
+    return inertia ? inertia->energy(x) : 0.0;
   };
   auto evaluate = [&](const PoseState& s, Eigen::VectorXd* grad, Eigen::SparseMatrix<double>* hess) {
     double e = system.evaluate(s, design, grad, hess);
@@ -227,8 +222,8 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
         if (decrement <= noiseDecrement) {
           rep.outcome = Outcome::Converged;
           rep.roundoff = true;
-          rep.message = "force residual " + format("%.3g", res) + " N at the round-off floor of this problem (" +
-                        format("%.3g", floorForce) +
+          rep.message = "force residual " + formatNumber("%.3g", res) + " N at the round-off floor of this problem (" +
+                        formatNumber("%.3g", floorForce) +
                         " N) with a Newton decrement below the energy of rounding the unknowns";
           break;
         }
@@ -236,8 +231,8 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
       if (!modified && (d.cwiseAbs().array() <= kCorrectionUlps * kEps * u.cwiseAbs().array()).all()) {
         rep.outcome = Outcome::Converged;
         rep.roundoff = true;
-        rep.message = "Newton correction below the round-off of every unknown (force residual " + format("%.3g", res) +
-                      " N, round-off floor " + format("%.3g", floorForce) + " N)";
+        rep.message = "Newton correction below the round-off of every unknown (force residual " + formatNumber("%.3g", res) +
+                      " N, round-off floor " + formatNumber("%.3g", floorForce) + " N)";
         break;
       }
     }
@@ -353,7 +348,7 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
     if (it == 0 && !modified && tau == 0 && !(stepLength <= kAbsurdDisplacement * size)) {
       rep.outcome = Outcome::NumericalFailure;
       rep.message = "the loads are beyond double precision: the linear response to them moves a vertex by " +
-                    format("%.3g", stepLength) + " m, a structure of " + format("%.3g", size) + " m";
+                    formatNumber("%.3g", stepLength) + " m, a structure of " + formatNumber("%.3g", size) + " m";
       break;
     }
     // Trust radius on the vertex displacements; a modified step's twist

@@ -39,6 +39,9 @@ struct InertiaTerm {
   const Eigen::VectorXd* mass = nullptr;  // per unknown (kg on coordinates, zero on twists)
   double invH2 = 0.0;                     // 1 / h^2
   Eigen::VectorXd predicted;              // u_n + h v_n
+  double energy(const Eigen::VectorXd& u) const {
+    return 0.5 * invH2 * (mass->array() * (u - predicted).array().square()).sum();
+  }
 };
 
 struct MinimizerSettings {

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "solver/minimizer.hh"
+#include "solver/format.hh"
 #include "solver/modified_ldlt.hh"
 
 namespace rodmesh {
@@ -29,12 +30,6 @@ double pseudoSign(std::uint64_t i) {
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
   z ^= z >> 31;
   return (z >> 63) ? 1.0 : -1.0;
-}
-
-std::string format(const char* fmt, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, a);
-  return buf;
 }
 
 // Newton from state.u at state.loadFactor (solver/minimizer.hh with the
@@ -453,24 +448,24 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         std::ostringstream os;
         os << r.message << "; loading path followed in " << pathSteps << " load steps";
         for (const CriticalPoint& cp : total.criticalPoints)
-          os << "; passed a critical point at load factor " << format("%.4g", cp.loadFactor)
-             << " (smallest stiffness eigenvalue " << format("%.3g", cp.smallestEigenvalue)
-             << " N/m): the structure left its branch there and jumped by " << format("%.3g", cp.jump)
+          os << "; passed a critical point at load factor " << formatNumber("%.4g", cp.loadFactor)
+             << " (smallest stiffness eigenvalue " << formatNumber("%.3g", cp.smallestEigenvalue)
+             << " N/m): the structure left its branch there and jumped by " << formatNumber("%.3g", cp.jump)
              << " m to the equilibrium beyond (snap-through or buckling)";
         r.message = os.str();
       }
     }
     if (timedOut) {
       r.outcome = Outcome::TimeLimit;
-      r.message = "time limit reached at load factor " + format("%.6g", lam) + "; the returned state is the " +
-                  (lam > 0 ? "equilibrium at load factor " + format("%.6g", lam) + ", not at the full load"
+      r.message = "time limit reached at load factor " + formatNumber("%.6g", lam) + "; the returned state is the " +
+                  (lam > 0 ? "equilibrium at load factor " + formatNumber("%.6g", lam) + ", not at the full load"
                            : std::string("rest state"));
     } else if (failed) {
       const std::string last = r.message;
       const Outcome lastOutcome = r.outcome;
       std::ostringstream os;
       const std::string returned = lam > 0 ? "the returned state is the equilibrium at load factor " +
-                                                 format("%.6g", lam) + ", not at the full load"
+                                                 formatNumber("%.6g", lam) + ", not at the full load"
                                            : std::string("the returned state is the rest state (load factor 0)");
       if (lastOutcome == Outcome::NumericalFailure && lam == 0.0) {
         // Even the smallest load step cannot be represented.
@@ -485,25 +480,25 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         if (unloaded.zeroMode()) {
           os << "the unloaded structure has a mode without stiffness that double precision resolves (smallest "
                 "eigenvalue "
-             << format("%.3g", unloaded.smallestEigenvalue) << " N/m, at the round-off of stiffnesses up to "
-             << format("%.3g", unloaded.largestDiagonal)
+             << formatNumber("%.3g", unloaded.smallestEigenvalue) << " N/m, at the round-off of stiffnesses up to "
+             << formatNumber("%.3g", unloaded.largestDiagonal)
              << " N/m): either a mechanism, which the loads must carry through a large rigid motion that Newton did "
                 "not complete (vertices held by 'fixed' along one straight line act as a hinge: clamp one, or hold "
                 "one off that line; an unsupported part moves freely), or a discretization too fine for double "
                 "precision (the bending stiffness of a rod of N edges spans ~N^4); "
              << returned << " (last attempt: " << last << ")";
         } else if (lost) {
-          os << "the equilibrium path was lost at load factor " << format("%.6g", lam)
+          os << "the equilibrium path was lost at load factor " << formatNumber("%.6g", lam)
              << ": no equilibrium was found within a load step of " << minStep
              << " beyond it (a limit or bifurcation point; smallest stiffness eigenvalue there "
-             << format("%.4g", here.smallestEigenvalue) << " N/m, unloaded "
-             << format("%.4g", unloaded.smallestEigenvalue) << " N/m"
+             << formatNumber("%.4g", here.smallestEigenvalue) << " N/m, unloaded "
+             << formatNumber("%.4g", unloaded.smallestEigenvalue) << " N/m"
              << (negativeBeyond ? "; negative curvature beyond it" : "") << "); " << returned
              << " (last attempt: " << last << ")";
         } else {
           os << "did not reach the full load: the load step fell below " << minStep << " at load factor "
-             << format("%.6g", lam) << " (smallest stiffness eigenvalue there "
-             << format("%.4g", here.smallestEigenvalue) << " N/m); " << returned << " (last attempt: " << last << ")";
+             << formatNumber("%.6g", lam) << " (smallest stiffness eigenvalue there "
+             << formatNumber("%.4g", here.smallestEigenvalue) << " N/m); " << returned << " (last attempt: " << last << ")";
         }
       }
       r.message = os.str();

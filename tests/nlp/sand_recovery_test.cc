@@ -73,12 +73,21 @@ INSTANTIATE_TEST_SUITE_P(Parameters, SandRecovery,
                                   (i.param.rest ? "rest_shape" : "");
                          });
 
+// The small sheet whose targets come from a hidden design with radii and
+// rest shape, both free: the model and design space the tests below share.
+struct HiddenBothSheet {
+  testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
+  SceneModel model{pr.scene};
+  DesignSpace space{pr.scene, model.effects()};
+};
+
 // --schedule levels: the radius levels, then one joint phase (radii and rest
 // shape together); no rest-shape-only phase, and the hidden design is found.
 TEST(SandRecovery, LevelsScheduleEndsWithOneJointPhaseAndRecovers) {
-  const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
-  SceneModel model(pr.scene);
-  const DesignSpace space(pr.scene, model.effects());
+  const HiddenBothSheet sheet;
+  const SceneModel& model = sheet.model;
+  const DesignSpace& space = sheet.space;
+  const testutil::HiddenDesignProblem& pr = sheet.pr;
   SandOptions o = recoveryOptions(Schedule::Levels);
   const DesignOptimizerResult r = optimizeSand(model, space, o);
   ASSERT_NE(r.outcome, Outcome::NumericalFailure) << r.message;
@@ -99,9 +108,10 @@ TEST(SandRecovery, LevelsScheduleEndsWithOneJointPhaseAndRecovers) {
 // the hidden design and says what happened. Without that retry the Ipopt
 // retry diverges as well and the run ends stalled.
 TEST(SandRecovery, ADivergedPhaseIsRunAgainByNewtonCg) {
-  const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
-  SceneModel model(pr.scene);
-  const DesignSpace space(pr.scene, model.effects());
+  const HiddenBothSheet sheet;
+  const SceneModel& model = sheet.model;
+  const DesignSpace& space = sheet.space;
+  const testutil::HiddenDesignProblem& pr = sheet.pr;
   SandOptions o = recoveryOptions(Schedule::Joint);
   o.warmupIterations = 0;
   o.divergedLoads = 1e-12;
@@ -132,9 +142,10 @@ TEST(SandRecovery, ADivergedPhaseIsRunAgainByNewtonCg) {
 // constr_mult_init_max); on this small sheet its default start does too,
 // on the defaults benchmark's sheets and hat it did not (docs/optimization.md).
 TEST(SandRecovery, RestShapeRunStaysNearEquilibriumFromTheBfgsStart) {
-  const testutil::HiddenDesignProblem pr = testutil::hiddenDesignSheet(true, true, 3, 3);
-  SceneModel model(pr.scene);
-  const DesignSpace space(pr.scene, model.effects());
+  const HiddenBothSheet sheet;
+  const SceneModel& model = sheet.model;
+  const DesignSpace& space = sheet.space;
+  const testutil::HiddenDesignProblem& pr = sheet.pr;
   SandOptions o = recoveryOptions(Schedule::Joint);
   const DesignOptimizerResult r = optimizeSand(model, space, o);
   EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
