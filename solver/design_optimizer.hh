@@ -237,6 +237,12 @@ class StallDetector {
 // Targets met to round-off: the objective at most this fraction of the
 // initial design's (RMS at most 1e-6 of the initial RMS), at an equilibrium.
 constexpr double kTargetsMetRatio = 1e-12;
+// An initial design whose RMS error is below this fraction of the scene's
+// extent (bounding-box diagonal of vertices and targets) already meets every
+// target: what is left is the round-off of its equilibrium solves, and an
+// optimizer started there faces a degenerate problem (zero objective,
+// multipliers undetermined) with nothing to gain.
+constexpr double kTargetsMetExtent = 1e-10;
 // Progress in RMS slower than this fraction of the initial design's RMS per
 // iteration is not meaningful to a designer: 1e-4 of it over 20 iterations
 // (2 micrometres on a 20 mm initial error), 1e-3 over a 200-iteration round.

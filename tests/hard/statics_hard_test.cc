@@ -949,7 +949,7 @@ TEST_F(HardStatics, OptimizedPlanarDesignThatBucklesIsArchivedAsSimulateSolvesIt
   const RunResult opt = run("optimize scene.json -o out.h5 --max-iter 20");
   EXPECT_EQ(opt.status, 1) << opt.err;
   const Archive a = archive();
-  EXPECT_EQ(a.status, "not_converged");
+  EXPECT_EQ(a.status, "not_converged") << opt.err;
   const ArchivePose& p = onlyPose(a);
   EXPECT_GT(p.twist.size(), 0) << "solved again in 3D";
   EXPECT_GT(largestDisplacement(s, p.positions, 2), 0.02) << "buckled out of plane";

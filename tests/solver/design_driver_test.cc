@@ -156,6 +156,40 @@ TEST(DesignDriver, TargetsMetEndTheScheduleEarly) {
   EXPECT_EQ(r.history.size(), 2u) << "initial + the scripted iterate";
 }
 
+// An initial design whose equilibria are the targets up to round-off runs
+// no phase (the optimizer would face a zero objective with undetermined
+// multipliers); one a micrometre off still does.
+TEST(DesignDriver, AnInitialDesignAtTheTargetsToRoundOffRunsNoPhase) {
+  Cantilever c;
+  const ControlValues initial = c.space.initialControls(c.scene);
+  const Design d0 = c.space.toDesign(initial);
+  const std::vector<PoseState> eq = c.equilibria(initial);
+  for (const double offset : {1e-15, 1e-6}) {
+    Scene s = c.scene;
+    for (int k = 0; k < c.model.numPoses(); ++k) {
+      s.poses[k].target = c.model.pose(k).positions(eq[k], d0);
+      for (Vec3& x : s.poses[k].target) x += Vec3(offset, -offset, offset);
+    }
+    const SceneModel model(s);
+    const DesignSpace space(s, model.effects());
+    ScriptedPhases phases;
+    phases.script = [&](const PhaseTask&, PhaseContext&) {
+      PhaseResult r;
+      r.end = PhaseEnd::Converged;
+      return r;
+    };
+    const DesignOptimizerResult r = runDesign(model, space, driverOptions(), phases);
+    EXPECT_EQ(r.outcome, Outcome::Converged) << offset << ": " << r.message;
+    if (offset < 1e-9) {
+      EXPECT_EQ(phases.tasks.size(), 0u);
+      EXPECT_NE(r.message.find("meets every target to round-off"), std::string::npos) << r.message;
+      EXPECT_EQ(r.history.size(), 1u) << "the initial design only";
+    } else {
+      EXPECT_GE(phases.tasks.size(), 1u) << r.message;
+    }
+  }
+}
+
 TEST(DesignDriver, LimitsStopBetweenPhases) {
   Cantilever c;
   ScriptedPhases phases;
