@@ -158,7 +158,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
   auto addPoseFromDofs = [&](int p, const Eigen::VectorXd& u, const Charts& charts, const PoseSolveSummary& solve,
                              const std::string& details, const std::string& reason) {
     const PoseSystem& sys = model.pose(p);
-    const PoseState state{u, charts, 1.0};
+    const PoseState state{u, charts, 1.0, {}};
     addPose(p, sys.positions(state, design), sys.materialTwists(state, design), solve, details, reason);
   };
 

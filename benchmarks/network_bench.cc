@@ -113,7 +113,7 @@ struct EvalCost {
 };
 
 EvalCost timeEvaluations(const PoseSystem& sys, const Design& d, int repeat) {
-  const PoseState s{sys.restDofs(d), sys.restCharts(d), 1.0};
+  const PoseState s{sys.restDofs(d), sys.restCharts(d), 1.0, {}};
   Eigen::VectorXd g;
   Eigen::SparseMatrix<double> H;
   double e = 0;
@@ -227,7 +227,7 @@ int main(int argc, char** argv) {
       for (int r = 0; r < repeat; ++r) {
         const auto t0 = Clock::now();
         const double scale = loadScale(sys, design);
-        PoseState s{sys.restDofs(design), sys.restCharts(design), 1.0};
+        PoseState s{sys.restDofs(design), sys.restCharts(design), 1.0, {}};
         NewtonOptions o;
         o.maxIterations = std::max(k, 1);
         double rel = 1.0;
@@ -251,8 +251,8 @@ int main(int argc, char** argv) {
   double maxDiff = 0.0;
   {
     const Charts charts = sys.restCharts(design);  // positions do not depend on the charts
-    const std::vector<Vec3> a = sys.positions(PoseState{uNewton, charts, 1.0}, design),
-                            b = sys.positions(PoseState{uRelax, charts, 1.0}, design);
+    const std::vector<Vec3> a = sys.positions(PoseState{uNewton, charts, 1.0, {}}, design),
+                            b = sys.positions(PoseState{uRelax, charts, 1.0, {}}, design);
     for (std::size_t v = 0; v < a.size(); ++v) maxDiff = std::max(maxDiff, (a[v] - b[v]).norm());
   }
   // First iteration at which relaxation reached each level.

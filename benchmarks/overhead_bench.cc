@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
       const PoseSystem& sys = model->pose(p);
       PoseState state = sys.restState(design);
       solveEquilibrium(sys, design, state, NewtonOptions{});
-      positions[p] = sys.positions(PoseState{state.u, state.charts, 1.0}, design);
+      positions[p] = sys.positions(PoseState{state.u, state.charts, 1.0, {}}, design);
     }
   });
   if (model->effects().planar) {

@@ -98,7 +98,7 @@ Timing timeSolve(const Scene& scene, int repeat) {
     out.dofs = sys.numDofs();
     out.converged = r.converged();
     out.relResidual = r.relativeResidual;
-    out.x = sys.positions(PoseState{u, sys.restCharts(d), 1.0}, d);
+    out.x = sys.positions(PoseState{u, sys.restCharts(d), 1.0, {}}, d);
   }
   out.solve = median(t);
   out.perIteration = median(ti);

@@ -352,7 +352,7 @@ Scene parseScene(const std::string& text, const std::string& path) {
       Node pn = poses.at(p);
       if (!pn.j->is_object()) pn.fail("expected an object, got " + pn.typeName());
       warnUnknownKeys(pn, {"name", "weight", "fixed", "clamped", "forces", "twisting_moments", "contacts",
-                               "target"});
+                               "ties", "target"});
       Pose pose;
       pose.name = pn.has("name") ? pn["name"].string() : "pose" + std::to_string(p);
       if (pn.has("name")) checkPoseName(pn["name"], pose.name);
@@ -439,6 +439,27 @@ Scene parseScene(const std::string& text, const std::string& path) {
           c.distance = e["distance"].numberWithin(limits::kMinEdgeLength, limits::kMaxCoordinate, "m");
           c.stiffness = e["stiffness"].numberWithin(0.0, limits::kMaxForce, "N", true);
           pose.contacts.push_back(c);
+        }
+      }
+      if (pn.has("ties")) {
+        Node ts = pn["ties"];
+        std::size_t n = ts.arraySize();
+        for (std::size_t i = 0; i < n; ++i) {
+          Node e = ts.at(i);
+          if (!e.j->is_object())
+            e.fail("expected an object with keys \"vertices\", \"stiffness\" and \"yield_force\", got " + e.typeName());
+          VertexTie t;
+          Node vs = e["vertices"];
+          if (vs.arraySize() != 2) vs.fail("expected two vertex indices");
+          t.a = vs.at(0).index(nv, "vertex");
+          t.b = vs.at(1).index(nv, "vertex");
+          const double length = (s.vertices[t.b] - s.vertices[t.a]).norm();
+          if (!(length >= limits::kMinEdgeLength))
+            vs.fail("a tie joins two vertices at least 1e-08 m apart in the scene, got vertices " +
+                    std::to_string(t.a) + " and " + std::to_string(t.b) + " at distance " + Node::fmtRange(length) + " m");
+          t.stiffness = e["stiffness"].numberWithin(0.0, limits::kMaxTieStiffness, "N/m", true);
+          t.yieldForce = e["yield_force"].numberWithin(0.0, limits::kMaxForce, "N", true);
+          pose.ties.push_back(t);
         }
       }
       if (pn.has("target"))

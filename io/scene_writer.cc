@@ -74,6 +74,10 @@ std::string sceneToJson(const Scene& s, int indent) {
     for (const VertexContact& c : p.contacts)
       contacts.push_back({{"vertices", {c.a, c.b}}, {"distance", c.distance}, {"stiffness", c.stiffness}});
     if (!contacts.empty()) pj["contacts"] = std::move(contacts);
+    json ties = json::array();
+    for (const VertexTie& t : p.ties)
+      ties.push_back({{"vertices", {t.a, t.b}}, {"stiffness", t.stiffness}, {"yield_force", t.yieldForce}});
+    if (!ties.empty()) pj["ties"] = std::move(ties);
     if (!p.target.empty()) {
       json t = json::array();
       for (const Vec3& v : p.target) t.push_back(vec(v));

@@ -36,6 +36,8 @@ constexpr double kMaxGravity = 1e4;
 constexpr double kMaxForce = 1e9;
 // A twisting moment [N m]: [-kMaxMoment, kMaxMoment].
 constexpr double kMaxMoment = 1e9;
+// Tie stiffness, N/m (poses[i].ties[j].stiffness).
+constexpr double kMaxTieStiffness = 1e12;
 // A pose weight of the optimization objective: [0, kMaxWeight].
 constexpr double kMaxWeight = 1e6;
 // design.control_points_per_rod (and `mesh --control-points`): [2, kMaxControlPoints].

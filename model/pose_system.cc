@@ -54,6 +54,20 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
     TermBlocks::Block<I>::collect(setup, std::get<I>(storage->elements));
   });
   terms_ = std::move(storage);
+  // Internal variables: block by block, element by element, initial values.
+  std::vector<double> initial;
+  TermBlocks::each([&](auto index) {
+    constexpr int I = decltype(index)::value;
+    using Block = TermBlocks::Block<I>;
+    internalOffset_.push_back(static_cast<int>(initial.size()));
+    if constexpr (InternalCount<Block>::value > 0) {
+      for (const auto& el : std::get<I>(terms_->elements)) {
+        initial.resize(initial.size() + InternalCount<Block>::value);
+        Block::initial(el, initial.data() + initial.size() - InternalCount<Block>::value);
+      }
+    }
+  });
+  initialInternal_ = Eigen::Map<const Eigen::VectorXd>(initial.data(), static_cast<Eigen::Index>(initial.size()));
 
   buildPattern();
 }
@@ -132,7 +146,7 @@ std::vector<double> PoseSystem::heldCoefficients(double loadFactor) const {
   return c;
 }
 
-PoseState PoseSystem::restState(const Design& d) const { return PoseState{restDofs(d), restCharts(d), 0.0}; }
+PoseState PoseSystem::restState(const Design& d) const { return PoseState{restDofs(d), restCharts(d), 0.0, {}}; }
 
 std::vector<Vec3> PoseSystem::positions(const PoseState& s, const Design& d) const {
   const Eigen::VectorXd& u = s.u;
@@ -192,7 +206,41 @@ BuildCtx PoseSystem::context(const std::vector<Vec3>& x, const Eigen::VectorXd& 
   c.scene = &scene_;
   c.net = &net_;
   c.fx = &fx_;
+  c.internal = initialInternal_.data();
   return c;
+}
+
+const double* PoseSystem::internalOf(const PoseState& s) const {
+  if (s.internal.size() == 0) return initialInternal_.data();
+  if (s.internal.size() != initialInternal_.size())
+    throw std::invalid_argument("pose " + std::to_string(pose_) + ": the state has " +
+                                std::to_string(s.internal.size()) + " internal variables, the model " +
+                                std::to_string(initialInternal_.size()));
+  return s.internal.data();
+}
+
+std::optional<PoseState> PoseSystem::advancedInternal(const PoseState& s, const Design& d) const {
+  if (numInternal() == 0) return std::nullopt;
+  const std::vector<Vec3> x = positions(s, d);
+  const Eigen::VectorXd theta = twists(s.u);
+  BuildCtx ctx = context(x, theta, d, nullptr, s.charts, s.loadFactor, Terms::All);
+  Eigen::VectorXd next = Eigen::Map<const Eigen::VectorXd>(internalOf(s), numInternal());
+  bool changed = false;
+  TermBlocks::each([&](auto index) {
+    constexpr int I = decltype(index)::value;
+    using Block = TermBlocks::Block<I>;
+    if constexpr (InternalCount<Block>::value > 0) {
+      double* internal = next.data() + internalOffset_[I];
+      for (const auto& el : std::get<I>(terms_->elements)) {
+        changed = Block::update(el, ctx, internal) || changed;
+        internal += InternalCount<Block>::value;
+      }
+    }
+  });
+  if (!changed) return std::nullopt;
+  PoseState out = s;
+  out.internal = std::move(next);
+  return out;
 }
 
 const std::vector<TermKind>& PoseSystem::termKinds() {
@@ -200,7 +248,7 @@ const std::vector<TermKind>& PoseSystem::termKinds() {
     std::vector<TermKind> k;
     TermBlocks::each([&](auto index) {
       using Block = TermBlocks::Block<decltype(index)::value>;
-      k.push_back({Block::kName, Block::kLinear, Block::kLoad, Block::kDesign});
+      k.push_back({Block::kName, Block::kLinear, Block::kLoad, Block::kDesign, InternalCount<Block>::value});
     });
     return k;
   }();

@@ -73,6 +73,7 @@ struct TermKind {
   bool linear;  // linear in the unknowns: no Hessian, no third derivatives
   bool load;    // an external load, scaled by the load factor
   bool design;  // depends on design parameters (beyond the rest positions of held vertices)
+  int internal = 0;  // internal variables per element, carried in PoseState::internal
 };
 
 // Derivatives of a pose's energy E(u, p) w.r.t. the joint variables (u, p),
@@ -103,6 +104,12 @@ struct PoseState {
   Eigen::VectorXd u;
   Charts charts;
   double loadFactor = 0.0;
+  // Internal variables of the term blocks that have them (a plastic tie's
+  // rest length, model/terms/tie.hh), block by block in term-list order,
+  // element by element (PoseSystem::numInternal). Evaluations read them as
+  // constants; minimizers carry them unchanged; PoseSystem::advancedInternal
+  // applies the blocks' update rules. Empty: every block's initial values.
+  Eigen::VectorXd internal;
 };
 
 // A pose model: built once from a scene, its effects and a pose index, and
@@ -148,8 +155,17 @@ class PoseSystem {
   // The state of unknowns u at a load factor, twists measured from the
   // design's rest frames.
   PoseState withRestCharts(const Eigen::VectorXd& u, const Design& d, double loadFactor = 1.0) const {
-    return PoseState{u, restCharts(d), loadFactor};
+    return PoseState{u, restCharts(d), loadFactor, {}};
   }
+
+  // Internal variables (PoseState::internal): how many this pose has, their
+  // initial values, and the state with every block's update rule applied at
+  // the state's positions (e.g. a tie's return mapping to its yield force),
+  // or nothing when no value changes. Solvers call it between accepted
+  // steps: after a time step, after a static solve (solver/newton.cc).
+  int numInternal() const { return static_cast<int>(initialInternal_.size()); }
+  const Eigen::VectorXd& initialInternal() const { return initialInternal_; }
+  std::optional<PoseState> advancedInternal(const PoseState& s, const Design& d) const;
   // The state with every chart that has turned more than acos(cosLimit) from
   // its edge's current tangent moved to the current frame, or nothing when no
   // chart moves. The material frames, the energy and the equilibria are those
@@ -221,6 +237,9 @@ class PoseSystem {
   void buildPattern();
   void buildJointPattern() const;
   std::vector<double> heldCoefficients(double loadFactor) const;
+  // The internal variables an evaluation of s reads: s.internal, or the
+  // initial values when it is empty; any other size is an error.
+  const double* internalOf(const PoseState& s) const;
 
   // Walks every element of the included blocks (model/terms/term_list.hh)
   // in order and calls visit(kernel, stencil, index of the stencil).
@@ -258,6 +277,9 @@ class PoseSystem {
 
   // Every block's elements (model/terms/term_list.hh), built once.
   std::shared_ptr<const detail::TermStorage> terms_;
+  // Internal variables: first index of each block's, and their initial values.
+  std::vector<int> internalOffset_;
+  Eigen::VectorXd initialInternal_;
 
   // Sparsity: per stencil (in the order of forEachStencil) its unknowns and
   // the Hessian value slot of each (i >= j) pair.

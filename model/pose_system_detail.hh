@@ -732,9 +732,19 @@ void PoseSystem::forEachStencil(const BuildCtx& ctx, Visit&& visit) const {
       sidx += static_cast<int>(elements.size());
       return;
     }
-    for (const auto& el : elements) {
-      Block::template visit<D, TW>(el, ctx, [&](const auto& kern, const LocalStencil& ls) { visit(kern, ls, sidx); });
-      ++sidx;
+    auto each = [&](const auto& kern, const LocalStencil& ls) { visit(kern, ls, sidx); };
+    if constexpr (InternalCount<Block>::value > 0) {
+      const double* internal = ctx.internal + internalOffset_[I];
+      for (const auto& el : elements) {
+        Block::template visit<D, TW>(el, ctx, internal, each);
+        internal += InternalCount<Block>::value;
+        ++sidx;
+      }
+    } else {
+      for (const auto& el : elements) {
+        Block::template visit<D, TW>(el, ctx, each);
+        ++sidx;
+      }
     }
   });
 }

@@ -26,7 +26,8 @@ template <int D, bool TW, class Out>
 void PoseSystem::runSim(const PoseState& s, const Design& d, Terms terms, Out& out) const {
   const std::vector<Vec3> x = positions(s, d);
   const Eigen::VectorXd theta = twists(s.u);
-  const BuildCtx ctx = context(x, theta, d, nullptr, s.charts, s.loadFactor, terms);
+  BuildCtx ctx = context(x, theta, d, nullptr, s.charts, s.loadFactor, terms);
+  ctx.internal = internalOf(s);
   double* hv = out.hessian ? out.hessian->valuePtr() : nullptr;
   auto visit = [&](const auto& kern, const LocalStencil& ls, int sidx) {
     using K = std::decay_t<decltype(kern)>;
@@ -65,7 +66,8 @@ void PoseSystem::runJoint(const PoseState& s, const Design& d, Terms terms, cons
   const std::vector<Vec3> x = positions(s, d);
   const Eigen::VectorXd theta = twists(s.u);
   const std::vector<double> hc = heldCoefficients(s.loadFactor);
-  const BuildCtx ctx = context(x, theta, d, &hc, s.charts, s.loadFactor, terms);
+  BuildCtx ctx = context(x, theta, d, &hc, s.charts, s.loadFactor, terms);
+  ctx.internal = internalOf(s);
   const bool derivative = v != nullptr;
   double* vals[3] = {out.Huu.valuePtr(), out.Hup.valuePtr(), out.Hpp.valuePtr()};
   constexpr int kSlotMask = (1 << kSlotShift) - 1;
@@ -108,7 +110,8 @@ void PoseSystem::runProduct(const PoseState& s, const Design& d, Terms terms, co
   const std::vector<Vec3> x = positions(s, d);
   const Eigen::VectorXd theta = twists(s.u);
   const std::vector<double> hc = heldCoefficients(s.loadFactor);
-  const BuildCtx ctx = context(x, theta, d, &hc, s.charts, s.loadFactor, terms);
+  BuildCtx ctx = context(x, theta, d, &hc, s.charts, s.loadFactor, terms);
+  ctx.internal = internalOf(s);
   auto visit = [&](const auto& kern, const LocalStencil& ls, int) {
     using K = std::decay_t<decltype(kern)>;
     constexpr int N = KernelSize<K>::nx + KernelSize<K>::np;

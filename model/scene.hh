@@ -58,6 +58,15 @@ struct VertexContact {
   double stiffness = 0.0;
 };
 
+// Extension: an elastic-perfectly-plastic tie between vertices a and b:
+// tension stiffness * (distance - rest length), at most yieldForce in
+// magnitude, beyond which the rest length follows (model/terms/tie.hh).
+struct VertexTie {
+  int a = -1, b = -1;
+  double stiffness = 0.0;   // N/m
+  double yieldForce = 0.0;  // N
+};
+
 struct Pose {
   std::string name;
   double weight = 1.0;
@@ -66,6 +75,7 @@ struct Pose {
   std::vector<PointForce> forces;
   std::vector<TwistingMoment> twistingMoments;  // extension "twisting_moments"
   std::vector<VertexContact> contacts;          // extension "contacts"
+  std::vector<VertexTie> ties;                  // extension "ties"
   std::vector<Vec3> target;  // empty when absent, else one per vertex
 };
 

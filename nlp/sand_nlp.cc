@@ -70,7 +70,7 @@ double displacedReactions(const Scene& scene, const EffectSet& effects, const Po
   const RodNetwork network(freed);
   const PoseSystem copy(freed, network, effects, k);
   const PoseState freedState{copy.dofsFrom(sys.positions(state, d), sys.materialTwists(state, d)),
-                             copy.restCharts(d), 1.0};
+                             copy.restCharts(d), 1.0, {}};
   Eigen::VectorXd g;
   copy.evaluate(freedState, d, &g, nullptr);
   double sum = 0.0;
@@ -167,7 +167,7 @@ SandNlp::SandNlp(const SceneModel& model, const DesignSpace& space, const Target
   dir_.resize(K_);
   for (int k = 0; k < K_; ++k) {
     const PoseSystem& sys = model.pose(k);
-    state_[k] = PoseState{states[k].u, states[k].charts, 1.0};
+    state_[k] = PoseState{states[k].u, states[k].charts, 1.0, {}};
     x0_.segment(offset_[k], sys.numDofs()) = states[k].u;
     const double L = scale_.load[k];
     if (!(L > 0) || !std::isfinite(L)) throw std::invalid_argument("SandNlp: load scales must be positive");

@@ -428,18 +428,29 @@ class PyPoseModel {
     return u;
   }
 
-  double energy(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor) const {
-    return sys().energy(checked(u, loadFactor), design(p));
+  double energy(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor,
+                const std::optional<Eigen::VectorXd>& internal) const {
+    return sys().energy(checked(u, loadFactor, internal), design(p));
   }
-  Eigen::VectorXd gradient(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p,
-                           double loadFactor) const {
+  Eigen::VectorXd gradient(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p, double loadFactor,
+                           const std::optional<Eigen::VectorXd>& internal) const {
     Eigen::VectorXd g;
-    sys().evaluate(checked(u, loadFactor), design(p), &g, nullptr);
+    sys().evaluate(checked(u, loadFactor, internal), design(p), &g, nullptr);
     return g;
   }
   Eigen::SparseMatrix<double> hessian(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p,
-                                      double loadFactor) const {
-    return sys().joint(checked(u, loadFactor), design(p)).Huu;
+                                      double loadFactor, const std::optional<Eigen::VectorXd>& internal) const {
+    return sys().joint(checked(u, loadFactor, internal), design(p)).Huu;
+  }
+  // Internal variables of the term blocks (a plastic tie's rest length):
+  // their initial values, and the values after the blocks' update rules at
+  // u (the given ones, or the initial ones, when nothing changes).
+  Eigen::VectorXd initialInternal() const { return sys().initialInternal(); }
+  Eigen::VectorXd advancedInternal(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& internal,
+                                   const std::optional<Eigen::VectorXd>& p, double loadFactor) const {
+    const PoseState s = checked(u, loadFactor, internal);
+    if (std::optional<PoseState> next = sys().advancedInternal(s, design(p))) return next->internal;
+    return s.internal.size() ? s.internal : sys().initialInternal();
   }
   Eigen::SparseMatrix<double> designJacobian(const Eigen::VectorXd& u, const std::optional<Eigen::VectorXd>& p,
                                              double loadFactor) const {
@@ -514,10 +525,18 @@ class PyPoseModel {
   PoseState at(const Eigen::VectorXd& u, double loadFactor) const {
     return sys().withRestCharts(u, design_, loadFactor);
   }
-  PoseState checked(const Eigen::VectorXd& u, double loadFactor) const {
+  PoseState checked(const Eigen::VectorXd& u, double loadFactor,
+                    const std::optional<Eigen::VectorXd>& internal = std::nullopt) const {
     if (u.size() != numDofs())
       throw py::value_error("u has " + std::to_string(u.size()) + " entries, expected " + std::to_string(numDofs()));
-    return at(u, loadFactor);
+    PoseState s = at(u, loadFactor);
+    if (internal) {
+      if (internal->size() != sys().numInternal())
+        throw py::value_error("internal has " + std::to_string(internal->size()) + " entries, expected " +
+                              std::to_string(sys().numInternal()) + " (see initial_internal)");
+      s.internal = *internal;
+    }
+    return s;
   }
 
   std::unique_ptr<Scene> scene_;  // SceneModel keeps a reference
@@ -589,9 +608,15 @@ PYBIND11_MODULE(_rodmesh, m) {
       .def("design_vector", &PyPoseModel::designVector)
       .def("dof_info", &PyPoseModel::dofInfo)
       .def("rest_state", &PyPoseModel::restState, py::arg("p") = py::none())
-      .def("energy", &PyPoseModel::energy, py::arg("u"), py::arg("p") = py::none(), py::arg("load_factor") = 1.0)
-      .def("gradient", &PyPoseModel::gradient, py::arg("u"), py::arg("p") = py::none(), py::arg("load_factor") = 1.0)
-      .def("hessian", &PyPoseModel::hessian, py::arg("u"), py::arg("p") = py::none(), py::arg("load_factor") = 1.0)
+      .def("energy", &PyPoseModel::energy, py::arg("u"), py::arg("p") = py::none(), py::arg("load_factor") = 1.0,
+           py::arg("internal") = py::none())
+      .def("gradient", &PyPoseModel::gradient, py::arg("u"), py::arg("p") = py::none(), py::arg("load_factor") = 1.0,
+           py::arg("internal") = py::none())
+      .def("hessian", &PyPoseModel::hessian, py::arg("u"), py::arg("p") = py::none(), py::arg("load_factor") = 1.0,
+           py::arg("internal") = py::none())
+      .def_property_readonly("initial_internal", &PyPoseModel::initialInternal)
+      .def("advanced_internal", &PyPoseModel::advancedInternal, py::arg("u"), py::arg("internal") = py::none(),
+           py::arg("p") = py::none(), py::arg("load_factor") = 1.0)
       .def("design_jacobian", &PyPoseModel::designJacobian, py::arg("u"), py::arg("p") = py::none(),
            py::arg("load_factor") = 1.0)
       .def("energy_design_gradient", &PyPoseModel::energyDesignGradient, py::arg("u"), py::arg("p") = py::none(),

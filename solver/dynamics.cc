@@ -114,7 +114,7 @@ BackwardEuler::Trial BackwardEuler::solveStep(double h, double loadFactor) {
   // The step's unknowns at its end's load factor, in the state's charts
   // (re-anchored only between steps). It starts from the prediction or from
   // the current state, whichever has the lower incremental potential.
-  PoseState at{uPred, state_.charts, loadFactor};
+  PoseState at{uPred, state_.charts, loadFactor, state_.internal};
   {
     auto phi = [&](const Eigen::VectorXd& w) {
       at.u = w;
@@ -243,6 +243,9 @@ bool BackwardEuler::advanceTo(double t) {
         state_ = std::move(*moved);
         rep_.chartUpdates++;
       }
+      // Internal variables follow the accepted step (a tie's rest length
+      // after yielding, model/terms/tie.hh); the next step starts from them.
+      if (std::optional<PoseState> advanced = sys_.advancedInternal(state_, design_)) state_ = std::move(*advanced);
       const bool easy = tr.iterations <= opt_.easyIterations && tr.deviation <= 0.5 * opt_.maxDisplacement &&
                         tr.twistChange <= 0.5 * opt_.maxTwistChange;
       if (easy && !clipped) h_ = std::min(h_ * opt_.growFactor, opt_.maxStep);

@@ -77,13 +77,13 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
     }
     r.dofs = state.u;
     // Positions and material twists as reported at the full load.
-    const PoseState reported{state.u, state.charts, 1.0};
+    const PoseState reported{state.u, state.charts, 1.0, state.internal};
     r.positions = sys.positions(reported, design);
     r.twist = sys.materialTwists(reported, design);
     const auto& target = model.scene().poses[p].target;
     if (!target.empty()) r.rmsError = rmsError(r.positions, target);
     if (r.report.outcome != Outcome::NumericalFailure && r.report.outcome != Outcome::InvalidProblem) {
-      const Stability st = stability(sys, design, PoseState{state.u, state.charts, r.report.loadFactor});
+      const Stability st = stability(sys, design, PoseState{state.u, state.charts, r.report.loadFactor, state.internal});
       if (st.ok) {
         r.stable = st.negative == 0;
         r.smallestEigenvalue = st.smallestEigenvalue;

@@ -74,7 +74,7 @@ namespace {
 // measured in the given charts.
 double loadScaleIn(const PoseSystem& system, const Design& design, const Charts& charts) {
   Eigen::VectorXd g;
-  system.evaluate(PoseState{system.restDofs(design), charts, 1.0}, design, &g, nullptr);
+  system.evaluate(PoseState{system.restDofs(design), charts, 1.0, {}}, design, &g, nullptr);
   const Eigen::VectorXd r = system.forceResidual(g);
   if (!r.allFinite()) return std::numeric_limits<double>::infinity();
   return r.stableNorm();
@@ -180,7 +180,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   // Newton from uIn (updated) at load factor lf in `charts` (updated).
   auto solveAt = [&](double lf, Eigen::VectorXd& uIn, double tol, const NewtonOptions& o,
                      Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false) {
-    PoseState s{std::move(uIn), std::move(charts), lf};
+    PoseState s{std::move(uIn), std::move(charts), lf, state.internal};
     NewtonReport rs = newtonSolveUntil(system, design, s, scale, tol, o, deadline, hasDeadline, firstStep,
                                        stopAtNegative);
     uIn = std::move(s.u);
@@ -229,11 +229,17 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   // and 0, exactly zero when nothing is applied; a straight rod's residual
   // at rest is exactly zero, so a real load however light stays a load.
   // Checked for solves that start at rest (one more gradient there).
-  bool noLoad = scale == 0.0;
-  if (!noLoad && state.loadFactor <= 0.0) {
+  // (Internal variables other than the initial ones, e.g. a yielded tie's
+  // rest length, can leave the rest configuration out of equilibrium
+  // without any load: such a state is always solved.)
+  const bool initialInternal =
+      state.internal.size() == 0 ||
+      (state.internal.size() == system.numInternal() && state.internal == system.initialInternal());
+  bool noLoad = scale == 0.0 && initialInternal;
+  if (!noLoad && initialInternal && state.loadFactor <= 0.0) {
     Eigen::VectorXd g0, g1;
-    system.evaluate(PoseState{rest.u, state.charts, 0.0}, design, &g0, nullptr);
-    system.evaluate(PoseState{rest.u, state.charts, 1.0}, design, &g1, nullptr);
+    system.evaluate(PoseState{rest.u, state.charts, 0.0, {}}, design, &g0, nullptr);
+    system.evaluate(PoseState{rest.u, state.charts, 1.0, {}}, design, &g1, nullptr);
     const Eigen::VectorXd r0 = system.forceResidual(g0), r1 = system.forceResidual(g1);
     noLoad = r0.allFinite() && r1.allFinite() && (r1 - r0).stableNorm() <= r0.stableNorm();
   }
@@ -245,7 +251,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     u = rest.u;
     charts = rest.charts;
     Eigen::VectorXd g;
-    const double e = system.evaluate(PoseState{u, charts, 1.0}, design, &g, nullptr);
+    const double e = system.evaluate(PoseState{u, charts, 1.0, {}}, design, &g, nullptr);
     total.residualNorm = system.forceResidual(g).stableNorm();
     total.energy = e;
     total.timeSeconds = since(t0);
@@ -417,7 +423,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
           break;
         }
         if (rj.converged()) {
-          const Stability there = stability(system, design, PoseState{uCur, chartsCur, lam});
+          const Stability there = stability(system, design, PoseState{uCur, chartsCur, lam, state.internal});
           const bool critical = negativeBeyond || (there.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
                                                    there.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
           if (critical) {
@@ -472,7 +478,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         r.outcome = Outcome::NumericalFailure;
         os << "failed at every load step down to " << minStep << " of the full load (" << last << "); " << returned;
       } else {
-        const Stability here = lam == 0.0 ? unloaded : stability(system, design, PoseState{uCur, chartsCur, lam});
+        const Stability here = lam == 0.0 ? unloaded : stability(system, design, PoseState{uCur, chartsCur, lam, state.internal});
         total.smallestEigenvalue = here.smallestEigenvalue;
         const bool lost = negativeBeyond || (here.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
                                              here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
@@ -506,7 +512,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   }
   // The final verdict is judged at the full load, whatever the last step said.
   Eigen::VectorXd g;
-  const double e = system.evaluate(PoseState{u, charts, 1.0}, design, &g, nullptr);
+  const double e = system.evaluate(PoseState{u, charts, 1.0, state.internal}, design, &g, nullptr);
   total.residualNorm = system.forceResidual(g).stableNorm();
   total.relativeResidual = total.residualNorm / scale;
   total.energy = e;

@@ -49,7 +49,7 @@ RelaxationReport relaxEquilibrium(const PoseSystem& sys, const Design& design, E
   const auto t0 = Clock::now();
   RelaxationReport rep;
   // The full load, twists measured from the design's rest frames.
-  PoseState state{uInOut, sys.restCharts(design), 1.0};
+  PoseState state{uInOut, sys.restCharts(design), 1.0, {}};
   Eigen::VectorXd& u = state.u;
   Eigen::SparseMatrix<double> H;  // the Hessian last evaluated (for the masses)
   const double scale = loadScale(sys, design);

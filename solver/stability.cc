@@ -49,7 +49,7 @@ bool outOfPlaneStable(const Scene& scene, const RodNetwork& network, const Effec
   // Zero twists measured in the charts of the scene's rest frames, under the
   // full load.
   const PoseState state{sys.dofsFrom(positions, Eigen::VectorXd::Zero(network.numEdges())),
-                        sys.restCharts(Design::fromScene(scene)), 1.0};
+                        sys.restCharts(Design::fromScene(scene)), 1.0, {}};
   Eigen::VectorXd g;
   Eigen::SparseMatrix<double> H;  // lower triangle
   sys.evaluate(state, design, &g, &H);

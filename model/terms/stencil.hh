@@ -85,6 +85,9 @@ struct BuildCtx {
   const Charts* charts = nullptr;
   double loadFactor = 1.0;
   TermSet terms = TermSet::All;
+  // The state's internal variables, every block's (PoseState::internal;
+  // never null): forEachStencil hands each element its own segment.
+  const double* internal = nullptr;
   // What the elements were built from (constants of the pose).
   const Scene* scene = nullptr;
   const RodNetwork* net = nullptr;

@@ -14,7 +14,14 @@
 //   template <int D, bool TW, class Visit>
 //   static void visit(const Element&, const BuildCtx&, Visit&& visit);
 // where visit builds the element's LocalStencil (model/terms/stencil.hh) and
-// kernel and calls visit(kernel, stencil) exactly once. A kernel is a
+// kernel and calls visit(kernel, stencil) exactly once. A block whose
+// elements carry internal variables in the state (PoseState::internal) also
+// declares
+//   static constexpr int kInternal;      // per element
+//   static void initial(const Element&, double* internal);
+//   static bool update(const Element&, const BuildCtx&, double* internal);
+// and its visit takes the element's internal values as a third argument
+// (const double*); model/terms/tie.hh is the example. A kernel is a
 // callable template <class S, class P> S operator()(const S* x, const P* p)
 // over its kNx x locals and kNp p locals, written once for every scalar (the
 // AD types of model/ad.hh supply exact first, second and third derivatives).
@@ -23,6 +30,7 @@
 
 #include "model/terms/builtin.hh"
 #include "model/terms/contact.hh"
+#include "model/terms/tie.hh"
 
 #include <cstddef>
 #include <tuple>
@@ -53,7 +61,14 @@ struct TermList {
 
 // The registered blocks, in evaluation order.
 using TermBlocks = TermList<StretchTerm, BendTwistTerm, ClampTerm, ConnectionTerm, GravityTerm, PointForceTerm,
-                            MomentTerm, ContactTerm>;
+                            MomentTerm, ContactTerm, TieTerm>;
+
+// Internal variables per element of a block (0 unless it declares kInternal).
+template <class Block, class = void>
+struct InternalCount : std::integral_constant<int, 0> {};
+template <class Block>
+struct InternalCount<Block, std::void_t<decltype(Block::kInternal)>>
+    : std::integral_constant<int, Block::kInternal> {};
 
 // One pose model's elements of every block.
 struct TermStorage {

@@ -282,6 +282,10 @@ def load_archive(path):
     return Result(_rodmesh.load_archive(_os.fspath(path)))
 
 
+def _internal(values):
+    return None if values is None else _np.asarray(values, float)
+
+
 class PoseModel:
     """The energy of one pose of a scene as a function of its unknowns u, with
     exact derivatives (model/pose_system.hh).
@@ -300,6 +304,12 @@ class PoseModel:
     prescribed displacements). Twists are measured from the rest frames of
     the scene's design whatever p is (fixed coordinates, so that design
     derivatives are taken at fixed u); results depend only on the arguments.
+
+    Internal variables (initial_internal): values some energy terms keep in
+    the state, today the rest length of each plastic tie (scene key
+    poses[i].ties, one value per tie). energy, gradient and hessian take them
+    as `internal` (default: the initial values); advanced_internal applies
+    the terms' update rules (a tie yields) at u.
     """
 
     def __init__(self, scene, pose=0):
@@ -338,17 +348,28 @@ class PoseModel:
         the scene's design only)."""
         return self._impl.rest_state(p)
 
-    def energy(self, u, p=None, load_factor=1.0):
+    def energy(self, u, p=None, load_factor=1.0, internal=None):
         """Total potential energy E(u, p) (J)."""
-        return self._impl.energy(_np.asarray(u, float), p, load_factor)
+        return self._impl.energy(_np.asarray(u, float), p, load_factor, _internal(internal))
 
-    def gradient(self, u, p=None, load_factor=1.0):
+    def gradient(self, u, p=None, load_factor=1.0, internal=None):
         """dE/du: the equilibrium residual (N for positions, N m for twists)."""
-        return self._impl.gradient(_np.asarray(u, float), p, load_factor)
+        return self._impl.gradient(_np.asarray(u, float), p, load_factor, _internal(internal))
 
-    def hessian(self, u, p=None, load_factor=1.0):
+    def hessian(self, u, p=None, load_factor=1.0, internal=None):
         """d2E/du2 as a scipy.sparse matrix, both triangles stored."""
-        return self._impl.hessian(_np.asarray(u, float), p, load_factor)
+        return self._impl.hessian(_np.asarray(u, float), p, load_factor, _internal(internal))
+
+    @property
+    def initial_internal(self):
+        """The internal variables' initial values (a tie's: its scene length, m)."""
+        return self._impl.initial_internal
+
+    def advanced_internal(self, u, internal=None, p=None, load_factor=1.0):
+        """The internal variables after the terms' update rules at u (a tie
+        whose tension exceeds its yield force gets the rest length that leaves
+        exactly that force); unchanged values where nothing yields."""
+        return self._impl.advanced_internal(_np.asarray(u, float), _internal(internal), p, load_factor)
 
     def design_jacobian(self, u, p=None, load_factor=1.0):
         """dF/dp = d2E/du dp (n_dofs x n_parameters) as a scipy.sparse matrix."""

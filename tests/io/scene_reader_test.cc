@@ -751,6 +751,24 @@ TEST(SceneReaderErrors, ContactWithoutStiffness) {
   expectMessage(errorOf(j), "poses[0].contacts[0].stiffness", {"0"});
 }
 
+TEST(SceneReaderErrors, TieBetweenCoincidentVertices) {
+  json j = baseScene();
+  j["vertices"] = json::parse("[[0, 0, 0], [0.01, 0, 0], [0.02, 0, 0], [0.03, 0, 0], [0.01, 0, 0], [0.01, 0.01, 0]]");
+  j["rods"] = json::parse(R"([{"vertices": [0, 1, 2, 3]}, {"vertices": [4, 5]}])");
+  j["poses"][0]["ties"] = json::parse(R"([{"vertices": [1, 4], "stiffness": 10, "yield_force": 0.1}])");
+  expectMessage(errorOf(j), "poses[0].ties[0].vertices", {"1", "4", "distance 0"});
+}
+
+TEST(SceneReaderErrors, TieWithoutYieldForce) {
+  json j = baseScene();
+  j["poses"][0]["ties"] = json::parse(R"([{"vertices": [1, 3], "stiffness": 10, "yield_force": 0}])");
+  expectMessage(errorOf(j), "poses[0].ties[0].yield_force", {"0"});
+  j["poses"][0]["ties"] = json::parse(R"([{"vertices": [1, 3], "stiffness": -1, "yield_force": 1}])");
+  expectMessage(errorOf(j), "poses[0].ties[0].stiffness", {"-1"});
+  j["poses"][0]["ties"] = json::parse(R"([{"vertices": [1, 3], "yield_force": 1}])");
+  expectMessage(errorOf(j), "poses[0].ties[0].stiffness");
+}
+
 // ================================================================ valid scenes
 
 TEST(SceneReader, ParsesAValidSceneWithTheRightValues) {
@@ -862,13 +880,18 @@ TEST(SceneReader, RoundTripsThroughSceneToJson) {
      "target": [[0,0,0],[0.01,0,0],[0.02,0,0],[0.03,0,0],[0.03,0.01,0],[0.03,0.02,0.5]]},
     {"forces": [{"vertex": 2, "force": [0, 0, 1e-3]}], "clamped": [{"vertex": 5}],
      "twisting_moments": [{"vertex": 0, "moment": -0.002}],
-     "contacts": [{"vertices": [1, 4], "distance": 0.004, "stiffness": 0.25}]}
+     "contacts": [{"vertices": [1, 4], "distance": 0.004, "stiffness": 0.25}],
+     "ties": [{"vertices": [2, 5], "stiffness": 40.0, "yield_force": 0.03}]}
   ])");
   j["design"] = json::parse(R"({"parameters": ["rest_shape"], "radius_bounds": [0.0005, 0.004],
                                 "control_points_per_rod": 3})");
   const Scene a = parseScene(j.dump(), kFile);
   ASSERT_EQ(a.poses[1].contacts.size(), 1u);
   EXPECT_EQ(a.poses[1].contacts[0].b, 4);
+  ASSERT_EQ(a.poses[1].ties.size(), 1u);
+  EXPECT_EQ(a.poses[1].ties[0].b, 5);
+  EXPECT_EQ(a.poses[1].ties[0].stiffness, 40.0);
+  EXPECT_EQ(a.poses[1].ties[0].yieldForce, 0.03);
   const std::string text = sceneToJson(a);
   const Scene b = parseScene(text, "roundtrip.json");
   EXPECT_TRUE(lastSceneWarnings().empty());
@@ -914,6 +937,13 @@ TEST(SceneReader, RoundTripsThroughSceneToJson) {
       EXPECT_EQ(y.contacts[i].b, x.contacts[i].b);
       EXPECT_EQ(y.contacts[i].distance, x.contacts[i].distance);
       EXPECT_EQ(y.contacts[i].stiffness, x.contacts[i].stiffness);
+    }
+    ASSERT_EQ(y.ties.size(), x.ties.size());
+    for (std::size_t i = 0; i < x.ties.size(); ++i) {
+      EXPECT_EQ(y.ties[i].a, x.ties[i].a);
+      EXPECT_EQ(y.ties[i].b, x.ties[i].b);
+      EXPECT_EQ(y.ties[i].stiffness, x.ties[i].stiffness);
+      EXPECT_EQ(y.ties[i].yieldForce, x.ties[i].yieldForce);
     }
     EXPECT_EQ(y.target, x.target);
   }

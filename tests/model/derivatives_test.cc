@@ -55,7 +55,9 @@ Scene makeNetwork(bool planar) {
 // varying radii, clamped at vertex 0, fixed at vertex 3 of a second short rod
 // sharing no vertex, with point forces, a twisting moment (3D), gravity and a
 // contact between the two rods, pressed (|x_a - x_b| about 0.7 of its
-// distance at rest).
+// distance at rest), and two ties along the first rod (Fixture::at gives them
+// rest lengths 0.6 of their scene distances: one stays elastic, the other, with
+// a low yield force, is in plastic flow at every tested state).
 Scene makeScene(Kind kind) {
   Scene s;
   s.sourcePath = "<derivatives>";
@@ -89,6 +91,12 @@ Scene makeScene(Kind kind) {
   if (kind == Kind::Spatial) p.twistingMoments.push_back({n - 1, 1e-4});
   const int ca = 2, cb = n + 1;
   p.contacts.push_back({ca, cb, 1.4 * (s.vertices[cb] - s.vertices[ca]).norm(), 0.05});
+  // Short ties (one and two edges), so that their Hessians vary at the
+  // scale of the tested steps. Stretches at the tested states: 0.4 of the
+  // distance (4 and 8 mm) plus the perturbation (about 1 mm); yield
+  // stretches 50 mm and 0.05 mm.
+  p.ties.push_back({4, 5, 20.0, 1.0});
+  p.ties.push_back({1, 3, 20.0, 1e-3});
   s.poses.push_back(p);
   if (kind == Kind::SpatialNoTwist)
     s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Gravity};
@@ -101,8 +109,13 @@ struct Fixture {
   Design design;
   Eigen::VectorXd u, du, dp;
   const PoseSystem& sys() { return model->pose(0); }
-  // The state at unknowns x: the design's rest frames as charts, full load.
-  PoseState at(const Eigen::VectorXd& x) { return sys().withRestCharts(x, design); }
+  // The state at unknowns x: the design's rest frames as charts, full load,
+  // internal variables (tie rest lengths) 0.6 of their initial values.
+  PoseState at(const Eigen::VectorXd& x) {
+    PoseState s = sys().withRestCharts(x, design);
+    s.internal = 0.6 * sys().initialInternal();
+    return s;
+  }
 };
 
 std::unique_ptr<Fixture> makeFixture(Kind kind, unsigned seed) {
@@ -336,6 +349,16 @@ TEST(TermDerivatives, ScenesExerciseEveryTerm) {
   for (std::size_t t = 0; t < kinds.size(); ++t) EXPECT_GT(total[t], 0) << kinds[t].name << " is tested nowhere";
   EXPECT_EQ(makeFixture(Kind::Network, 1)->sys().termCount(PoseSystem::termKindIndex("connection")), 2);
   EXPECT_EQ(makeFixture(Kind::Spatial, 1)->sys().termCount(PoseSystem::termKindIndex("moment")), 1);
+  // The ties are in the regimes the scene says: at a tested state the
+  // update rule leaves the first (elastic) and moves the second (plastic).
+  for (Kind k : {Kind::Spatial, Kind::Planar}) {
+    auto t = makeFixture(k, 1);
+    const PoseState st = t->at(t->u);
+    const std::optional<PoseState> next = t->sys().advancedInternal(st, t->design);
+    ASSERT_TRUE(next.has_value()) << kindName(k);
+    EXPECT_EQ(next->internal[0], st.internal[0]) << kindName(k);
+    EXPECT_GT(std::abs(next->internal[1] - st.internal[1]), 1e-3) << kindName(k);
+  }
   auto f = makeFixture(Kind::Spatial, 1);
   EXPECT_TRUE(f->sys().hasTwist());
   auto p = makeFixture(Kind::Planar, 1);

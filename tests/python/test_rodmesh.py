@@ -374,6 +374,40 @@ def test_pose_model_twist_dofs_and_equilibrium():
         m.energy(np.zeros(3))
 
 
+def test_pose_model_internal_variables_of_a_plastic_tie():
+    d = rodmesh.Scene.load(CANTILEVER).to_dict()
+    k, f = 50.0, 0.01  # yield stretch 0.2 mm
+    d["poses"][0]["ties"] = [{"vertices": [5, 10], "stiffness": k, "yield_force": f}]
+    m = rodmesh.PoseModel(rodmesh.Scene.from_dict(d), pose=0)
+    x = np.asarray(d["vertices"], float)
+    L0 = np.linalg.norm(x[10] - x[5])
+    np.testing.assert_allclose(m.initial_internal, [L0], rtol=1e-15)
+    u = m.rest_state()
+    # At rest the tie has its scene length; shorter rest lengths stretch it:
+    # elastic k/2 s^2 up to s = f/k, then f s - f^2/(2k).
+    base = m.energy(u, load_factor=0)
+    for s in (1e-4, 1e-3):
+        e = m.energy(u, load_factor=0, internal=[L0 - s]) - base
+        expected = 0.5 * k * s * s if k * s <= f else f * s - 0.5 * f * f / k
+        assert e == pytest.approx(expected, rel=1e-9)
+    # Gradient and Hessian with the tie in plastic flow, near rest.
+    rng = np.random.default_rng(3)
+    near = u + 1e-4 * rng.standard_normal(m.n_dofs)
+    direction = rng.standard_normal(m.n_dofs)
+    direction *= 1e-3 / np.linalg.norm(direction)
+    held = [L0 - 1e-3]
+    assert np.linalg.norm(m.gradient(near, internal=held) - m.gradient(near)) > 0.5 * f
+    fd_check(lambda y: np.array([m.energy(y, internal=held)]), lambda y: m.gradient(y, internal=held)[None, :], near,
+             direction, steps=(1.0, 0.1, 0.01))
+    fd_check(lambda y: m.gradient(y, internal=held), lambda y: m.hessian(y, internal=held), near, direction,
+             steps=(1.0, 0.1, 0.01))
+    # The update: the rest length that leaves exactly the yield force.
+    np.testing.assert_allclose(m.advanced_internal(u, held), [L0 - f / k], rtol=1e-12)
+    np.testing.assert_allclose(m.advanced_internal(u, [L0 - 1e-5]), [L0 - 1e-5], rtol=1e-15)  # elastic
+    with pytest.raises(ValueError):
+        m.energy(u, internal=[1.0, 2.0])
+
+
 # ---- meshing
 
 def read_obj(path):

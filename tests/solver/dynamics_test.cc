@@ -390,7 +390,7 @@ void expectSameEquilibrium(const Scene& s, double tol) {
   EXPECT_EQ(r.residualHistory.size(), r.historySeconds.size());
   EXPECT_EQ(r.residualHistory.back(), r.relativeResidual);
   Eigen::VectorXd gR;
-  const PoseState sR{uR, chartsR, 1.0};
+  const PoseState sR{uR, chartsR, 1.0, {}};
   sys.evaluate(sR, d, &gR, nullptr);
   const std::vector<Vec3> xR = sys.positions(sR, d);
   const double bound = (gR.norm() + gN.norm()) / lambdaMin;

@@ -78,7 +78,7 @@ TEST(Minimizer, ATimeStepEndsAtAStationaryPointOfTheIncrementalPotential) {
   // out here, at the answer against the step's starting imbalance.
   auto phiResidual = [&](const Eigen::VectorXd& u) {
     Eigen::VectorXd g;
-    step.sys.evaluate(PoseState{u, step.state.charts, 1.0}, step.design, &g, nullptr);
+    step.sys.evaluate(PoseState{u, step.state.charts, 1.0, {}}, step.design, &g, nullptr);
     for (int i = 0; i < step.sys.numDofs(); ++i) g[i] += step.mass[i] / (h * h) * (u[i] - step.inertia.predicted[i]);
     return step.sys.forceResidual(g).norm();
   };
