@@ -4,6 +4,7 @@
 #include "solver/parallel.hh"
 
 #include <Eigen/Geometry>
+#include <Eigen/SparseCholesky>
 
 #include <algorithm>
 #include <chrono>
@@ -116,7 +117,17 @@ class DesignDriver {
   // that equilibrium is not the one the optimizer holds (farther than
   // designedEquilibriumTolerance): `path` then holds the loading path's
   // equilibria and `note` says what happened.
-  bool offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note);
+  // When the rest shape is free, a seeded rest shape may bring the path
+  // onto the optimizer's branch (seedTowardsDesigned): `seeded` is then set
+  // and that design is already the best one.
+  bool offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note, bool& seeded);
+  // For a design off its loading path with the rest shape free: tries rest
+  // shapes displaced by fractions of the gap between the optimizer's and the
+  // path's equilibria (an imperfection towards the designed branch, which
+  // is how a structure is made to buckle one way). The first whose loading
+  // path reaches the designed branch (within the tolerance) becomes the best
+  // design, with those equilibria; `note` says so. False when none does.
+  bool seedTowardsDesigned(const std::vector<PoseState>& path, std::string& note);
   // The run goes on from the loading path's equilibria of the best design.
   void continueFromPath(std::vector<PoseState> path);
   // Of the best design and the fallbacks, the one whose loading-path
@@ -224,7 +235,8 @@ int DesignDriver::keepCandidates(const PhaseTask& task, const PhaseResult& pr, i
   return kept;
 }
 
-bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note) {
+bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note,
+                                  bool& seeded) {
   // Along the loading path from rest (solver/newton.hh), as `rodmesh
   // simulate` and the archive solve the design.
   path = restStates(res_.design);
@@ -256,7 +268,96 @@ bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>&
          "' as loaded from rest " + millimetres(gap) + " from the optimizer's equilibrium (tolerance " +
          millimetres(tolerance) + "; RMS " + millimetres(res_.rms) + " on the optimizer's equilibria, " +
          millimetres(rms) + " on the loading path's)";
+  std::string how;
+  if (seedTowardsDesigned(path, how)) {
+    note += ": " + how;
+    seeded = true;
+  }
   return true;
+}
+
+namespace {
+// Largest vertex distance between two equilibria of pose k of one design.
+double poseGap(const SceneModel& model, int k, const Design& d, const PoseState& a, const PoseState& b) {
+  const std::vector<Vec3> x = model.pose(k).positions(a, d), y = model.pose(k).positions(b, d);
+  double gap = 0.0;
+  for (std::size_t v = 0; v < x.size() && v < y.size(); ++v) gap = std::max(gap, (x[v] - y[v]).norm());
+  return gap;
+}
+}  // namespace
+
+bool DesignDriver::seedTowardsDesigned(const std::vector<PoseState>& path, std::string& note) {
+  if (!scene_.design.restShape) return false;
+  const int K = model_.numPoses();
+  // The gap field, summed over the poses: per vertex, designed minus path;
+  // and the poses in decreasing order of their gap.
+  const int nv = space_.numVertices();
+  Eigen::MatrixXd gapField = Eigen::MatrixXd::Zero(nv, 3);
+  std::vector<std::pair<double, int>> order;
+  for (int k = 0; k < K; ++k) {
+    const PoseSystem& sys = model_.pose(k);
+    const std::vector<Vec3> own = sys.positions(states_[k], res_.design);
+    const std::vector<Vec3> along = sys.positions(path[k], res_.design);
+    for (int v = 0; v < nv; ++v) gapField.row(v) += (own[v] - along[v]).transpose();
+    order.emplace_back(-poseGap(model_, k, res_.design, states_[k], path[k]), k);
+  }
+  const double tolerance = designedEquilibriumTolerance(res_.rms, structureSize());
+  std::sort(order.begin(), order.end());
+  // Control displacements whose interpolation fits it (least squares).
+  const Eigen::SparseMatrix<double> W = space_.interpolation();
+  const Eigen::SparseMatrix<double> normal = W.transpose() * W;
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(normal);
+  if (ldlt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd delta = ldlt.solve(W.transpose() * gapField);
+  if (ldlt.info() != Eigen::Success || !delta.allFinite()) return false;
+  for (const double fraction : {0.03, 0.1, 0.3}) {
+    ControlValues c = res_.controls;
+    c.displacement += fraction * delta;
+    const Design d = space_.toDesign(c);
+    // Pose by pose, the farthest first (a seed that fails there costs no
+    // other pose's loading path): the designed branch continued to the
+    // seeded design, and its loading path from rest.
+    std::vector<PoseState> own = states_, along = restStates(d);
+    bool reached = true;
+    for (const auto& [negativeGap, k] : order) {
+      if (interrupted() || timeUp()) return false;
+      const auto te = Clock::now();
+      const PoseSystem& sys = model_.pose(k);
+      bool solved = false;
+      try {
+        solved = solveEquilibrium(sys, d, own[k], opt_.newton).converged() &&
+                 solveEquilibrium(sys, d, along[k], opt_.newton).converged() && own[k].loadFactor == 1.0 &&
+                 along[k].loadFactor == 1.0;
+      } catch (const std::exception&) {
+        solved = false;
+      }
+      res_.evaluationSeconds += since(te);
+      // Within the tolerance of the run's RMS before the seed (the seeded
+      // design's own RMS is not known until every pose is solved). A pose
+      // that was on its path before and is not any more: larger seeds
+      // would only push it farther; the seed is given up.
+      if (!solved || !(poseGap(model_, k, d, own[k], along[k]) <= tolerance)) {
+        if (-negativeGap <= tolerance) return false;
+        reached = false;
+        break;
+      }
+    }
+    if (!reached) continue;
+    double fPath = 0.0;
+    const double rmsPath = objective_.rms(objectiveOfStates(model_, objective_, d, along, fPath));
+    if (!std::isfinite(fPath)) continue;
+    adopt(c, d, fPath, rmsPath, along, along);
+    wentOnFromPath_ = true;
+    if (fPath < bestOnPath_.objective) bestOnPath_ = {c, d, fPath, rmsPath, along, "a seeded rest shape"};
+    lastPath_ = {c, d, fPath, rmsPath, along, ""};
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2g", fraction);
+    note = std::string("a rest shape displaced by ") + buf +
+           " of that gap towards the optimizer's equilibria brings the loading path onto the designed branch "
+           "(RMS " + millimetres(rmsPath) + " as loaded from rest), and the run went on from that design";
+    return true;
+  }
+  return false;
 }
 
 void DesignDriver::continueFromPath(std::vector<PoseState> path) {
@@ -468,11 +569,17 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     std::vector<PoseState> path;
     std::string note;
     bool offPath = false;
-    if (kept >= 0 && !interrupted() && !timeUp() && offLoadingPath(task, path, note)) {
+    bool off = false, seeded = false;
+    if (kept >= 0 && !interrupted() && !timeUp()) off = offLoadingPath(task, path, note, seeded);
+    if (off) {
       if (!task.lastPhase || attempt < 1) {
         offPath = true;
-        notes.push_back(note + ": the run went on from the loading path's equilibria");
-        continueFromPath(std::move(path));
+        if (seeded) {
+          notes.push_back(note);  // the seeded design is the best design, with its path's equilibria
+        } else {
+          notes.push_back(note + ": the run went on from the loading path's equilibria");
+          continueFromPath(std::move(path));
+        }
         if (task.lastPhase) {
           ++attempt;
           --ph;
@@ -530,10 +637,11 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   // did not converge (its archived equilibria are not the ones it ended at).
   if (wentOnFromPath_) {
     OnPathDesign best = bestOnPath_;
-    if (monitor_ && monitor_->best() && monitor_->best()->objective < best.objective) {
-      const ConfirmedDesign& c = *monitor_->best();
-      best = {c.controls, c.design, c.objective, c.rms, c.states, c.label + " (confirmed from rest during the run)"};
-    }
+    // (DesignMonitor::best returns a copy: keep it while it is read.)
+    const std::optional<ConfirmedDesign> confirmed = monitor_ ? monitor_->best() : std::nullopt;
+    if (confirmed && confirmed->objective < best.objective)
+      best = {confirmed->controls, confirmed->design,         confirmed->objective, confirmed->rms,
+              confirmed->states,   confirmed->label + " (confirmed from rest during the run)"};
     if (best.objective < res_.objective) {
       message += "; the last design as loaded from rest (RMS " + millimetres(res_.rms) + ") is worse than " +
                  best.label + " (RMS " + millimetres(best.rms) + "), which is the result";

@@ -256,6 +256,54 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
   EXPECT_FALSE(a.offPath) << a.note;
 }
 
+// The same with the rest shape free: the driver displaces the rest shape
+// towards the designed (inverted) branch until the arch, loaded from rest,
+// snaps through onto it (a shallower arch has a lower limit load), and the
+// run goes on from that design, on its loading path: the last phase is run
+// again from it. (The scripted phase proposes the same off-path design
+// again; the result is then the best design on its loading path, stalled.)
+TEST(DesignDriver, ARestShapeSeededTowardsTheDesignedBranchBringsThePathOntoIt) {
+  Scene s = testutil::invertibleArch();
+  s.design.restShape = true;
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  const ControlValues c0 = space.initialControls(s);
+  const Design d0 = space.toDesign(c0);
+  const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
+  s.poses[0].target = model.pose(0).positions(inverted, d0);
+  for (Vec3& x : s.poses[0].target) x.z() -= 1e-3;
+  SceneModel targeted(s);
+  ScriptedPhases phases;
+  phases.script = [&](const PhaseTask&, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 5;
+    r.candidates.push_back({c0, {inverted}});
+    return r;
+  };
+  DesignOptimizerOptions o = driverOptions();
+  const DesignOptimizerResult r = runDesign(targeted, space, o, phases);
+  ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
+  EXPECT_NE(r.message.find("rest shape displaced by"), std::string::npos) << r.message;
+  // The retry starts from the seeded design, with its path's (inverted) equilibria.
+  EXPECT_FALSE(sameControls(phases.tasks[1].controls, c0));
+  const Design seeded = space.toDesign(phases.tasks[1].controls);
+  EXPECT_LT(targeted.pose(0).positions(phases.tasks[1].states[0], seeded)[20].z(), -0.01);
+  EXPECT_EQ(r.outcome, Outcome::Stalled) << r.message;
+  // The result: a shallower rest shape whose loading path ends inverted
+  // (shallower than the targets: the phases that follow in a real run work
+  // from there), with those equilibria; three times closer to the targets
+  // than the initial design as loaded from rest (23 against 72 mm).
+  EXPECT_FALSE(sameControls(r.controls, c0));
+  const Design d = space.toDesign(r.controls);
+  EXPECT_LT(d.restPositions[20].z(), d0.restPositions[20].z());
+  EXPECT_GT(d.restPositions[20].z(), 0.0) << "still an arch at rest";
+  EXPECT_LT(targeted.pose(0).positions(r.states[0], d)[20].z(), -0.01);
+  EXPECT_LT(r.rms, 0.5 * r.initialRms) << r.message;
+  const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
+  EXPECT_FALSE(a.offPath) << a.note;
+  EXPECT_NEAR(a.rms, r.rms, 1e-9);
+}
+
 // A run that went on from the loading path's equilibria and found nothing
 // better there ends with the best design whose equilibria are its loading
 // path's: here the initial design, as the thicker arch the phase proposed
