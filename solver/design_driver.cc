@@ -478,6 +478,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   int roundStartIteration = 0;
   int attempt = 0;        // retries of the current phase (divergence, off the loading path)
   bool retryDiverged = false;  // the retry is that of a diverged phase
+  bool seededRetry = false;    // the last phase was run again from a seeded rest shape
   int phaseIndex = 0;
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignStep& step = steps[ph];
@@ -572,7 +573,12 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     bool off = false, seeded = false;
     if (kept >= 0 && !interrupted() && !timeUp()) off = offLoadingPath(task, path, note, seeded);
     if (off) {
-      if (!task.lastPhase || attempt < 1) {
+      // The last phase is run again from the loading path's equilibria
+      // once, and once from a seeded rest shape that brought the path onto
+      // the designed branch (also after a diverged phase's retry: the
+      // optimizer then works on from a design that is on its path).
+      const bool seededAgain = seeded && !seededRetry;
+      if (!task.lastPhase || attempt < 1 || seededAgain) {
         offPath = true;
         if (seeded) {
           notes.push_back(note);  // the seeded design is the best design, with its path's equilibria
@@ -581,6 +587,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
           continueFromPath(std::move(path));
         }
         if (task.lastPhase) {
+          if (seeded) seededRetry = true;
           ++attempt;
           --ph;
           continue;
