@@ -423,45 +423,38 @@ Scene parseScene(const std::string& text, const std::string& path) {
           pose.twistingMoments.push_back(m);
         }
       }
-      if (pn.has("contacts")) {
-        Node cs = pn["contacts"];
-        std::size_t n = cs.arraySize();
+      // Terms between two vertices (contacts, ties): an array of objects
+      // with "vertices": [a, b] and the keys the term reads (read(e, vs, a, b)).
+      auto readPairs = [&](const char* key, const char* keys, auto read) {
+        if (!pn.has(key)) return;
+        Node list = pn[key];
+        const std::size_t n = list.arraySize();
         for (std::size_t i = 0; i < n; ++i) {
-          Node e = cs.at(i);
+          Node e = list.at(i);
           if (!e.j->is_object())
-            e.fail("expected an object with keys \"vertices\", \"distance\" and \"stiffness\", got " + e.typeName());
-          VertexContact c;
+            e.fail(std::string("expected an object with keys \"vertices\", ") + keys + ", got " + e.typeName());
           Node vs = e["vertices"];
           if (vs.arraySize() != 2) vs.fail("expected two vertex indices");
-          c.a = vs.at(0).index(nv, "vertex");
-          c.b = vs.at(1).index(nv, "vertex");
-          if (c.a == c.b) vs.fail("a contact joins two different vertices, got " + std::to_string(c.a) + " twice");
-          c.distance = e["distance"].numberWithin(limits::kMinEdgeLength, limits::kMaxCoordinate, "m");
-          c.stiffness = e["stiffness"].numberWithin(0.0, limits::kMaxForce, "N", true);
-          pose.contacts.push_back(c);
+          const int a = vs.at(0).index(nv, "vertex");  // a's error first
+          const int b = vs.at(1).index(nv, "vertex");
+          read(e, vs, a, b);
         }
-      }
-      if (pn.has("ties")) {
-        Node ts = pn["ties"];
-        std::size_t n = ts.arraySize();
-        for (std::size_t i = 0; i < n; ++i) {
-          Node e = ts.at(i);
-          if (!e.j->is_object())
-            e.fail("expected an object with keys \"vertices\", \"stiffness\" and \"yield_force\", got " + e.typeName());
-          VertexTie t;
-          Node vs = e["vertices"];
-          if (vs.arraySize() != 2) vs.fail("expected two vertex indices");
-          t.a = vs.at(0).index(nv, "vertex");
-          t.b = vs.at(1).index(nv, "vertex");
-          const double length = (s.vertices[t.b] - s.vertices[t.a]).norm();
-          if (!(length >= limits::kMinEdgeLength))
-            vs.fail("a tie joins two vertices at least 1e-08 m apart in the scene, got vertices " +
-                    std::to_string(t.a) + " and " + std::to_string(t.b) + " at distance " + Node::fmtRange(length) + " m");
-          t.stiffness = e["stiffness"].numberWithin(0.0, limits::kMaxTieStiffness, "N/m", true);
-          t.yieldForce = e["yield_force"].numberWithin(0.0, limits::kMaxForce, "N", true);
-          pose.ties.push_back(t);
-        }
-      }
+      };
+      readPairs("contacts", "\"distance\" and \"stiffness\"", [&](Node& e, Node& vs, int a, int b) {
+        if (a == b) vs.fail("a contact joins two different vertices, got " + std::to_string(a) + " twice");
+        const double distance = e["distance"].numberWithin(limits::kMinEdgeLength, limits::kMaxCoordinate, "m");
+        const double stiffness = e["stiffness"].numberWithin(0.0, limits::kMaxForce, "N", true);
+        pose.contacts.push_back({a, b, distance, stiffness});
+      });
+      readPairs("ties", "\"stiffness\" and \"yield_force\"", [&](Node& e, Node& vs, int a, int b) {
+        const double length = (s.vertices[b] - s.vertices[a]).norm();
+        if (!(length >= limits::kMinEdgeLength))
+          vs.fail("a tie joins two vertices at least 1e-08 m apart in the scene, got vertices " + std::to_string(a) +
+                  " and " + std::to_string(b) + " at distance " + Node::fmtRange(length) + " m");
+        const double stiffness = e["stiffness"].numberWithin(0.0, limits::kMaxTieStiffness, "N/m", true);
+        const double yieldForce = e["yield_force"].numberWithin(0.0, limits::kMaxForce, "N", true);
+        pose.ties.push_back({a, b, stiffness, yieldForce});
+      });
       if (pn.has("target"))
         pose.target = readVec3List(pn["target"], nv, "target positions", limits::kMaxCoordinate);
       s.poses.push_back(std::move(pose));
