@@ -83,7 +83,8 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
     const auto& target = model.scene().poses[p].target;
     if (!target.empty()) r.rmsError = rmsError(r.positions, target);
     if (r.report.outcome != Outcome::NumericalFailure && r.report.outcome != Outcome::InvalidProblem) {
-      const Stability st = stability(sys, design, PoseState{state.u, state.charts, r.report.loadFactor, state.internal});
+      const Stability st =
+          stability(sys, design, PoseState{state.u, state.charts, r.report.loadFactor, state.internal});
       if (st.ok) {
         r.stable = st.negative == 0;
         r.smallestEigenvalue = st.smallestEigenvalue;

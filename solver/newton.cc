@@ -478,7 +478,8 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         r.outcome = Outcome::NumericalFailure;
         os << "failed at every load step down to " << minStep << " of the full load (" << last << "); " << returned;
       } else {
-        const Stability here = lam == 0.0 ? unloaded : stability(system, design, PoseState{uCur, chartsCur, lam, state.internal});
+        const Stability here =
+            lam == 0.0 ? unloaded : stability(system, design, PoseState{uCur, chartsCur, lam, state.internal});
         total.smallestEigenvalue = here.smallestEigenvalue;
         const bool lost = negativeBeyond || (here.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
                                              here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
