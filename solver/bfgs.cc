@@ -7,6 +7,8 @@
 #include <deque>
 #include <utility>
 
+#include "solver/format.hh"
+
 namespace rodmesh {
 namespace {
 
@@ -20,12 +22,6 @@ constexpr double kMinDescentCosine = 1e-8;
 constexpr double kMinCurvatureCosine = 1e-10;
 // Bounds on the factor of a rejected (but evaluated) line-search probe.
 constexpr double kMinBacktrack = 0.1, kMaxBacktrack = 0.5;
-
-std::string format(const char* fmt, double a, double b = 0, double c = 0) {
-  char buf[256];
-  std::snprintf(buf, sizeof(buf), fmt, a, b, c);
-  return buf;
-}
 
 double infNorm(const VectorXd& v) { return v.size() ? v.lpNorm<Eigen::Infinity>() : 0.0; }
 
@@ -77,7 +73,7 @@ class BfgsRun {
       return Eval::Stop;
     }
     if (opt_.timeLimit > 0 && elapsed() >= opt_.timeLimit) {
-      stop_ = {Outcome::TimeLimit, format("time limit of %g s reached", opt_.timeLimit)};
+      stop_ = {Outcome::TimeLimit, formatMessage("time limit of %g s reached", opt_.timeLimit)};
       return Eval::Stop;
     }
     ++res_.evaluations;
@@ -238,8 +234,9 @@ BfgsResult minimizeBfgs(const BfgsObjective& objective, VectorXd x0, const Vecto
   };
   auto gradientConverged = [&]() -> bool {
     if (pgNorm > gradientThreshold) return false;
-    res.status = {Outcome::Converged, format("projected gradient below tolerance: |Pg|_inf = %.3g <= %.3g * %.3g",
-                                             pgNorm, opt.gradientTolerance, gradientScale)};
+    res.status = {Outcome::Converged,
+                  formatMessage("projected gradient below tolerance: |Pg|_inf = %.3g <= %.3g * %.3g", pgNorm,
+                                opt.gradientTolerance, gradientScale)};
     return true;
   };
   record(0, 0, false);
@@ -310,10 +307,10 @@ BfgsResult minimizeBfgs(const BfgsObjective& objective, VectorXd x0, const Vecto
     if (search == Search::Failed) {
       maxStep = std::max(opt.minStep, opt.stepShrink * maxStep);
       std::string message =
-          format("line search failed along steepest descent: no sufficient decrease down to |step|_inf = %.3g",
-                 info.lastLength);
+          formatMessage("line search failed along steepest descent: no sufficient decrease down to |step|_inf = %.3g",
+                        info.lastLength);
       if (info.failed) message += " (" + std::to_string(info.failed) + " failed evaluations)";
-      message += format("; |Pg|_inf = %.3g, %.3g of the gradient scale", pgNorm, pgNorm / gradientScale);
+      message += formatMessage("; |Pg|_inf = %.3g, %.3g of the gradient scale", pgNorm, pgNorm / gradientScale);
       return finish({Outcome::Stalled, message}, &run);
     }
 
@@ -364,8 +361,8 @@ BfgsResult minimizeBfgs(const BfgsObjective& objective, VectorXd x0, const Vecto
     if (iteration >= opt.stallWindow) {
       const double fOld = accepted[iteration - opt.stallWindow];
       if (fOld - f <= opt.relativeDecrease * std::abs(fOld))
-        return finish({Outcome::Converged, format("relative decrease below %.3g over %.0f iterations",
-                                                  opt.relativeDecrease, opt.stallWindow)},
+        return finish({Outcome::Converged, formatMessage("relative decrease below %.3g over %d iterations",
+                                                         opt.relativeDecrease, opt.stallWindow)},
                       &run);
     }
   }

@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <deque>
+
+#include "solver/format.hh"
 
 namespace rodmesh {
 namespace {
@@ -13,15 +14,6 @@ namespace {
 using Eigen::VectorXd;
 using Clock = std::chrono::steady_clock;
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::string format(const char* fmt, ...) {
-  char buf[512];
-  va_list ap;
-  va_start(ap, fmt);
-  std::vsnprintf(buf, sizeof buf, fmt, ap);
-  va_end(ap);
-  return buf;
-}
 
 // Held for an iteration: at a bound with the gradient pointing outward.
 bool heldAt(double x, double g, double lo, double hi) { return (x <= lo && g > 0) || (x >= hi && g < 0); }
@@ -170,7 +162,7 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
       return true;
     }
     if (opt.timeLimit > 0 && elapsed() >= opt.timeLimit) {
-      stop = {Outcome::TimeLimit, format("time limit of %.3g s reached", opt.timeLimit)};
+      stop = {Outcome::TimeLimit, formatMessage("time limit of %.3g s reached", opt.timeLimit)};
       return true;
     }
     return false;
@@ -218,8 +210,9 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
   };
   auto gradientConverged = [&] {
     if (pgNorm > opt.gradientTolerance * gradientScale) return false;
-    res.status = {Outcome::Converged, format("projected gradient below tolerance: |Pg|_inf = %.3g <= %.3g * %.3g",
-                                             pgNorm, opt.gradientTolerance, gradientScale)};
+    res.status = {Outcome::Converged,
+                  formatMessage("projected gradient below tolerance: |Pg|_inf = %.3g <= %.3g * %.3g", pgNorm,
+                                opt.gradientTolerance, gradientScale)};
     return true;
   };
   record({});
@@ -252,8 +245,10 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
     res.cgIterations += products;
     const double sNorm = step.s.norm();
     if (!(step.predicted > 0) || sNorm == 0) {
-      return finish({Outcome::Stalled, format("the model predicts no decrease (|Pg|_inf = %.3g, %.3g of the gradient "
-                                              "scale)", pgNorm, pgNorm / gradientScale)});
+      return finish(
+          {Outcome::Stalled, formatMessage("the model predicts no decrease (|Pg|_inf = %.3g, %.3g of the gradient "
+                                           "scale)",
+                                           pgNorm, pgNorm / gradientScale)});
     }
     VectorXd xNew = (x + step.s).cwiseMax(lower).cwiseMin(upper);
     double fNew = kInf;
@@ -275,9 +270,11 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
       ++res.rejectedSteps;
       radius = opt.shrink * std::min(radius, sNorm);
       if (radius < opt.minRadius)
-        return finish({Outcome::Stalled,
-                       format("trust radius below %.3g (%d rejected steps); |Pg|_inf = %.3g, %.3g of the gradient "
-                              "scale", opt.minRadius, rejected, pgNorm, pgNorm / gradientScale)});
+        return finish(
+            {Outcome::Stalled,
+             formatMessage("trust radius below %.3g (%d rejected steps); |Pg|_inf = %.3g, %.3g of the gradient "
+                           "scale",
+                           opt.minRadius, rejected, pgNorm, pgNorm / gradientScale)});
       continue;
     }
     if (rho < 0.25) radius = opt.shrink * sNorm;
@@ -309,8 +306,8 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
     if (iteration >= opt.stallWindow) {
       const double fOld = accepted[iteration - opt.stallWindow];
       if (fOld - f <= opt.relativeDecrease * std::abs(fOld))
-        return finish({Outcome::Converged, format("relative decrease below %.3g over %d iterations",
-                                                  opt.relativeDecrease, opt.stallWindow)});
+        return finish({Outcome::Converged, formatMessage("relative decrease below %.3g over %d iterations",
+                                                         opt.relativeDecrease, opt.stallWindow)});
     }
     ++iteration;
   }
