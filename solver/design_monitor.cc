@@ -145,9 +145,10 @@ void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
   // 1. Warm started from the last converged equilibria: a cheap test that
   //    the design has equilibria near the optimizer's branch and is better.
   //    When the design has moved beyond where that start converges (a
-  //    retried phase, a large step), the equilibria from rest become the
-  //    warm start instead; otherwise every later, farther design would fail
-  //    the same way and nothing would be confirmed again.
+  //    retried phase, a large step), the equilibria from rest (solved as in
+  //    step 2, once) become the warm start instead; otherwise every later,
+  //    farther design would fail the same way and nothing would be
+  //    confirmed again.
   if (static_cast<int>(warm_.size()) != K) return;
   SimulationResult warmSim;
   std::vector<PoseState> states;
@@ -163,17 +164,23 @@ void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
     states = std::move(start);
     return true;
   };
+  std::optional<SimulationResult> fromRest;
   if (!solveFrom(warm_)) {
     if (cancel_.load()) return;
-    std::vector<PoseState> rest;
-    for (int k = 0; k < K; ++k) rest.push_back(model.pose(k).restState(d));
-    if (!solveFrom(std::move(rest))) return;
+    fromRest = simulateAll(model, d, newton_);
+    if (cancel_.load() || !fromRest->allConverged) return;
+    states.clear();
+    for (const PoseResult& pr : fromRest->poses) {
+      if (pr.state.loadFactor != 1.0) return;
+      states.push_back(pr.state);
+    }
   }
   if (cancel_.load()) return;
   warm_ = states;  // converged: the next check starts here
-  if (!(simulationObjective(scene_, warmSim) < threshold)) return;
-  // 2. From rest, as `rodmesh simulate` and the archive solve it.
-  SimulationResult sim = simulateAll(model, d, newton_);
+  if (!fromRest && !(simulationObjective(scene_, warmSim) < threshold)) return;
+  // 2. From rest, as `rodmesh simulate` and the archive solve it (done
+  //    above when the warm start failed).
+  SimulationResult sim = fromRest ? std::move(*fromRest) : simulateAll(model, d, newton_);
   if (cancel_.load() || !sim.allConverged) return;
   double ss = 0.0;
   const double f = simulationObjective(scene_, sim, &ss);

@@ -76,6 +76,7 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
       r.report = solveEquilibrium(sys, design, state, options);
     }
     r.dofs = state.u;
+    r.state = state;
     // Positions and material twists as reported at the full load.
     const PoseState reported{state.u, state.charts, 1.0, state.internal};
     r.positions = sys.positions(reported, design);

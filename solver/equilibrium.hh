@@ -21,6 +21,7 @@ struct PoseResult {
   std::vector<Vec3> positions;
   Eigen::VectorXd twist;  // per edge, material frame from the transported rest frame; zeros without twist
   Eigen::VectorXd dofs;
+  PoseState state;  // the returned state (dofs, charts, load factor, internal variables)
   NewtonReport report;
   std::optional<double> rmsError;  // m, when the pose has a target
   // Planar solves only: whether the in-plane equilibrium is also stable

@@ -195,6 +195,19 @@ TEST_F(DesignMonitorTest, AWarmStartThatNoLongerConvergesIsReplacedByTheEquilibr
   monitor.drain();
   ASSERT_TRUE(monitor.best().has_value()) << "the design re-solves from rest better than the initial one";
   EXPECT_EQ(monitor.best()->iteration, 1);
+  {
+    // Solved from rest once: its states are the simulation's own (to
+    // round-off: the positions are evaluated by another model of the scene).
+    const std::optional<ConfirmedDesign> first = monitor.best();
+    SceneModel model(problem_.scene);
+    for (int k = 0; k < model.numPoses(); ++k) {
+      EXPECT_EQ(first->states[k].loadFactor, 1.0);
+      const std::vector<Vec3> x = model.pose(k).positions(first->states[k], first->design);
+      ASSERT_EQ(x.size(), first->simulation.poses[k].positions.size());
+      for (std::size_t v = 0; v < x.size(); ++v)
+        EXPECT_LT((x[v] - first->simulation.poses[k].positions[v]).norm(), 1e-12) << "pose " << k << " vertex " << v;
+    }
+  }
   monitor.offer(between(1.0), 2, "hidden");
   monitor.drain();
   const std::optional<ConfirmedDesign> best = monitor.best();
