@@ -18,21 +18,9 @@ constexpr int kEdges = 20;
 // A cantilever along +x clamped at 0, its tip tied to a held vertex kDrop
 // below and lifted by `force`.
 Scene tiedCantilever(double force) {
-  Scene s = testutil::cantilever(kEdges, kLength, kRadius, kRadius, Vec3(0, 0, 1));
-  const int anchor = static_cast<int>(s.vertices.size());
-  s.vertices.push_back(Vec3(kLength, 0.0, -kDrop));
-  s.vertices.push_back(Vec3(kLength + 0.01, 0.0, -kDrop));
-  for (int i = 0; i < 2; ++i) {
-    s.normals.push_back(Vec3(0, 0, 1));
-    s.radii.push_back(s.radii.front());
-  }
-  Rod r;
-  r.vertices = {anchor, anchor + 1};
-  s.rods.push_back(r);
+  Scene s = testutil::cantileverOverHeldRod(kEdges, kLength, kRadius, kDrop);
   Pose& p = s.poses.at(0);
-  p.fixed.push_back({anchor, std::nullopt});
-  p.fixed.push_back({anchor + 1, std::nullopt});
-  p.ties.push_back({kEdges, anchor, kTie, kYield});
+  p.ties.push_back({kEdges, kEdges + 1, kTie, kYield});
   p.forces.push_back({kEdges, Vec3(0.0, 0.0, force)});
   return s;
 }

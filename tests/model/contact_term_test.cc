@@ -23,20 +23,9 @@ constexpr int kEdges = 20;
 // below the tip (its first vertex `gap` under the tip), the tip loaded by
 // `force` along -z, and a contact between the tip and that vertex.
 Scene pressedCantilever(double gap, double force, double distance, double stiffness) {
-  Scene s = testutil::cantilever(kEdges, kLength, kRadius, kRadius, Vec3(0, 0, 1));
-  const int tip = kEdges, below = static_cast<int>(s.vertices.size());
-  s.vertices.push_back(Vec3(kLength, 0.0, -gap));
-  s.vertices.push_back(Vec3(kLength + 0.01, 0.0, -gap));
-  s.normals.push_back(Vec3(0, 0, 1));
-  s.normals.push_back(Vec3(0, 0, 1));
-  s.radii.push_back(s.radii.front());
-  s.radii.push_back(s.radii.front());
-  Rod r;
-  r.vertices = {below, below + 1};
-  s.rods.push_back(r);
+  Scene s = testutil::cantileverOverHeldRod(kEdges, kLength, kRadius, gap);
+  const int tip = kEdges, below = kEdges + 1;
   Pose& p = s.poses.at(0);
-  p.fixed.push_back({below, std::nullopt});
-  p.fixed.push_back({below + 1, std::nullopt});
   p.forces.push_back({tip, Vec3(0.0, 0.0, -force)});
   if (stiffness > 0) p.contacts.push_back({tip, below, distance, stiffness});
   return s;

@@ -31,20 +31,9 @@ constexpr double kTie = 0.05, kYield = 2e-5;
 // below the tip, a tie from the tip to that rod's first vertex; pose 0 lifts
 // the tip by `force` along +z, pose 1 has no load.
 Scene tiedCantilever(double force) {
-  Scene s = testutil::cantilever(kEdges, kLength, kRadius, kRadius, Vec3(0, 0, 1));
-  const int tip = kEdges, anchor = static_cast<int>(s.vertices.size());
-  s.vertices.push_back(Vec3(kLength, 0.0, -kDrop));
-  s.vertices.push_back(Vec3(kLength + 0.01, 0.0, -kDrop));
-  for (int i = 0; i < 2; ++i) {
-    s.normals.push_back(Vec3(0, 0, 1));
-    s.radii.push_back(s.radii.front());
-  }
-  Rod r;
-  r.vertices = {anchor, anchor + 1};
-  s.rods.push_back(r);
+  Scene s = testutil::cantileverOverHeldRod(kEdges, kLength, kRadius, kDrop);
+  const int tip = kEdges, anchor = kEdges + 1;
   Pose& p = s.poses.at(0);
-  p.fixed.push_back({anchor, std::nullopt});
-  p.fixed.push_back({anchor + 1, std::nullopt});
   p.ties.push_back({tip, anchor, kTie, kYield});
   Pose unloaded = p;
   unloaded.name = "unloaded";

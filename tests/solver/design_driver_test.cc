@@ -36,6 +36,24 @@ DesignOptimizerOptions driverOptions() {
   return o;
 }
 
+// Scripted phases that propose design c with equilibrium `state` (of the
+// scene's one pose) every time, after 5 iterations.
+std::function<PhaseResult(const PhaseTask&, PhaseContext&)> proposing(const ControlValues& c, const PoseState& state) {
+  return [c, state](const PhaseTask&, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 5;
+    r.candidates.push_back({c, {state}});
+    return r;
+  };
+}
+
+// Targets of pose 0: the positions of `state` under d, 1 mm lower still, so
+// that this equilibrium is much better than others but not exact.
+void targetsBelow(Scene& s, const PoseSystem& sys, const PoseState& state, const Design& d) {
+  s.poses[0].target = sys.positions(state, d);
+  for (Vec3& x : s.poses[0].target) x.z() -= 1e-3;
+}
+
 // A cantilever whose targets come from a design with 0.6 times its radii.
 struct Cantilever {
   Scene scene = testutil::fallbackCase();
@@ -225,18 +243,10 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
   const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
   const std::vector<Vec3> down = model.pose(0).positions(inverted, d0);
   ASSERT_LT(down[20].z(), -0.04);
-  // Targets: the inverted arch 1 mm lower still, so that the inverted
-  // equilibrium is much better than the arch up but not exact.
-  s.poses[0].target = down;
-  for (Vec3& x : s.poses[0].target) x.z() -= 1e-3;
+  targetsBelow(s, model.pose(0), inverted, d0);
   SceneModel targeted(s);
   ScriptedPhases phases;
-  phases.script = [&](const PhaseTask&, PhaseContext&) {
-    PhaseResult r;
-    r.iterations = 5;
-    r.candidates.push_back({c0, {inverted}});
-    return r;
-  };
+  phases.script = proposing(c0, inverted);
   const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
   ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
   EXPECT_GT(phases.tasks[0].states[0].u.size(), 0);
@@ -270,18 +280,11 @@ TEST(DesignDriver, ARestShapeSeededTowardsTheDesignedBranchBringsThePathOntoIt) 
   const ControlValues c0 = space.initialControls(s);
   const Design d0 = space.toDesign(c0);
   const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
-  s.poses[0].target = model.pose(0).positions(inverted, d0);
-  for (Vec3& x : s.poses[0].target) x.z() -= 1e-3;
+  targetsBelow(s, model.pose(0), inverted, d0);
   SceneModel targeted(s);
   ScriptedPhases phases;
-  phases.script = [&](const PhaseTask&, PhaseContext&) {
-    PhaseResult r;
-    r.iterations = 5;
-    r.candidates.push_back({c0, {inverted}});
-    return r;
-  };
-  DesignOptimizerOptions o = driverOptions();
-  const DesignOptimizerResult r = runDesign(targeted, space, o, phases);
+  phases.script = proposing(c0, inverted);
+  const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
   ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
   EXPECT_NE(r.message.find("rest shape displaced by"), std::string::npos) << r.message;
   // The retry starts from the seeded design, with its path's (inverted) equilibria.

@@ -28,6 +28,23 @@ Scene cantilever(int edges, double length, double rt, double rn, const Vec3& nor
   return s;
 }
 
+Scene cantileverOverHeldRod(int edges, double length, double r, double drop) {
+  Scene s = cantilever(edges, length, r, r, Vec3(0, 0, 1));
+  const int below = static_cast<int>(s.vertices.size());
+  s.vertices.push_back(Vec3(length, 0.0, -drop));
+  s.vertices.push_back(Vec3(length + 0.01, 0.0, -drop));
+  for (int i = 0; i < 2; ++i) {
+    s.normals.push_back(Vec3(0, 0, 1));
+    s.radii.push_back(s.radii.front());
+  }
+  Rod rod;
+  rod.vertices = {below, below + 1};
+  s.rods.push_back(rod);
+  s.poses.at(0).fixed.push_back({below, std::nullopt});
+  s.poses.at(0).fixed.push_back({below + 1, std::nullopt});
+  return s;
+}
+
 Scene clampedArc(int edges, double radius, double angle, double rt, double rn) {
   Scene s;
   s.sourcePath = "<test>";

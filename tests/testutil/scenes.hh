@@ -20,6 +20,13 @@ Scene straightRod(int edges, double length, double rt, double rn);
 // Material as in straightRod.
 Scene cantilever(int edges, double length, double rt, double rn, const Vec3& normal);
 
+// The cantilever above (normal +z, radius r) and a short rod of two vertices
+// held in pose 0 (fixed at rest), its first vertex `drop` below the tip
+// (x = length, z = -drop), the second 10 mm further along x: a support for
+// terms between the tip and a fixed vertex (contacts, ties). Returns the
+// scene; the held vertex below the tip is vertex edges + 1.
+Scene cantileverOverHeldRod(int edges, double length, double r, double drop);
+
 // A circular arc of `radius` in the xy plane, centred at the origin, from
 // angle 0 to `angle` [rad] (counter-clockwise), `edges` equal edges, uniform
 // radii, reference normals +z, clamped at vertex 0. One pose "pose0" with only
