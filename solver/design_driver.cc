@@ -3,7 +3,6 @@
 #include "solver/format.hh"
 #include "solver/parallel.hh"
 
-#include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
 
 #include <algorithm>
@@ -452,17 +451,10 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     if (progress_) progress_(it);
   }
   if (!(f0 > 0)) return finish(Outcome::Converged, "the initial design meets every target");
-  {
-    Eigen::AlignedBox3d box;
-    for (const Vec3& x : scene_.vertices) box.extend(x);
-    for (const Pose& p : scene_.poses)
-      for (const Vec3& x : p.target) box.extend(x);
-    const double extent = box.diagonal().norm();
-    if (rms0 <= kTargetsMetExtent * extent)
-      return finish(Outcome::Converged, "the initial design meets every target to round-off (RMS " +
-                                            formatNumber("%.3g", rms0) + " m, scene extent " +
-                                            formatNumber("%.3g", extent) + " m)");
-  }
+  if (rms0 <= kTargetsMetExtent * structureSize())
+    return finish(Outcome::Converged, "the initial design meets every target to round-off (RMS " +
+                                          formatNumber("%.3g", rms0) + " m, structure size " +
+                                          formatNumber("%.3g", structureSize()) + " m)");
   if (std::string why = solver.prepare(states_, f0); !why.empty()) return finish(Outcome::InvalidProblem, why);
   // The optimizer's designs are re-solved on a second thread, so that a
   // design that re-solves from rest is at hand at every moment.

@@ -237,8 +237,9 @@ class StallDetector {
 // Targets met to round-off: the objective at most this fraction of the
 // initial design's (RMS at most 1e-6 of the initial RMS), at an equilibrium.
 constexpr double kTargetsMetRatio = 1e-12;
-// An initial design whose RMS error is below this fraction of the scene's
-// extent (bounding-box diagonal of vertices and targets) already meets every
+// An initial design whose RMS error is below this fraction of the
+// structure's size (the largest coordinate range of its vertices, the
+// driver's structureSize) already meets every
 // target: what is left is the round-off of its equilibrium solves, and an
 // optimizer started there faces a degenerate problem (zero objective,
 // multipliers undetermined) with nothing to gain.
