@@ -284,18 +284,17 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   stepOpt.maxIterations = path ? pathIterations : opt.maxIterations;
   // A load step from the equilibrium `from` to the converged `to` is on the
   // loading path when the corrector met no negative curvature and `to` lies
-  // within opt.pathDeviation of the tangent prediction's displacement from
-  // that prediction (the first unmodified Newton step `tangent`): a state
-  // found much farther away belongs to another branch, or the step was too
-  // long to tell. Returns the deviation ratio (< 0: not on the path).
+  // within opt.pathDeviation of the predicted displacement `prediction` from
+  // the prediction: a state found much farther away belongs to another
+  // branch, or the step was too long to tell. Returns the deviation ratio
+  // (< 0: not on the path).
   auto pathDeviation = [&](const NewtonReport& rs, const Eigen::VectorXd& from, const Eigen::VectorXd& to,
-                           const Eigen::VectorXd& tangent) -> double {
+                           const Eigen::VectorXd& prediction) -> double {
     if (!rs.converged() || rs.negativeIterations > 0 || rs.escapes > 0) return -1.0;
-    if (tangent.size() != from.size()) return -1.0;
-    const double lin = maxVertexStep(system, tangent);
-    const double dev = maxVertexStep(system, to - from - tangent);
+    if (prediction.size() != from.size()) return -1.0;
+    const double dev = maxVertexStep(system, to - from - prediction);
     if (dev <= 1e-9 * size) return 0.0;
-    const double ratio = dev / lin;
+    const double ratio = dev / maxVertexStep(system, prediction);
     return ratio <= opt.pathDeviation ? ratio : -1.0;
   };
 
@@ -343,6 +342,26 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     bool failed = false, timedOut = false;
     bool negativeBeyond = false;  // a failed step beyond lam met negative curvature
     int pathSteps = 0;            // load steps kept (jumps past critical points included)
+    // The prediction of a load step: the secant through the last two
+    // equilibria of the path, scaled to the step, when there are two
+    // (`lastStep`: the vertex part of the last step kept, over
+    // `lastStepLength` of load; empty before the first step and after a
+    // critical point), the corrector starting from the predicted state; the
+    // tangent otherwise (the first Newton step from the last equilibrium).
+    // The tangent alone misjudges a path along which stiff members turn (a
+    // handle rolled through a large angle): Newton's linear step stretches
+    // the turning rods to second order, and their axial stiffness, thousands
+    // of times the bending stiffness that governs the motion, throws the
+    // corrector far from that prediction however smooth the path, so that
+    // every step was rejected down to the smallest. And starting the
+    // corrector from the last equilibrium with the held vertices already at
+    // their next positions compresses the rods next to them: negative
+    // curvature at the first iterate, on a path that has none. The secant
+    // follows a turning path to second order and moves the free vertices
+    // with the held ones.
+    Eigen::VectorXd lastStep;
+    double lastStepLength = 0.0;
+    const int nv = system.numVertexDofs();
     if (unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure) {
       if (path && !r.converged()) {
         // The path step stopped at negative curvature (or the warm start
@@ -377,12 +396,22 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
       charts = chartsCur;
       uTry = uCur;
       tangent.resize(0);
-      NewtonReport rs = solveAt(next, uTry, next < 1.0 ? stepTol : opt.tolerance, stepOpt, &tangent, path);
+      Eigen::VectorXd prediction;
+      if (path && lastStep.size() == uCur.size()) {
+        prediction = ((next - lam) / lastStepLength) * lastStep;
+        uTry += prediction;
+      }
+      NewtonReport rs = solveAt(next, uTry, next < 1.0 ? stepTol : opt.tolerance, stepOpt,
+                                prediction.size() > 0 ? nullptr : &tangent, path);
       merge(rs);
       r = rs;
-      const double deviation = path ? pathDeviation(rs, uCur, uTry, tangent) : (rs.converged() ? 0.0 : -1.0);
+      if (prediction.size() == 0) prediction = tangent;
+      const double deviation = path ? pathDeviation(rs, uCur, uTry, prediction) : (rs.converged() ? 0.0 : -1.0);
       if (deviation >= 0.0) {
         ++pathSteps;
+        lastStep = uTry - uCur;
+        lastStep.tail(lastStep.size() - nv).setZero();  // twists live in charts that may have moved
+        lastStepLength = next - lam;
         lam = next;
         uCur = uTry;
         chartsCur = charts;
@@ -434,6 +463,15 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
             total.criticalPoints.push_back(cp);
           }
           ++pathSteps;
+          // No secant across a jump; a smallest step that passed no critical
+          // point is as good a secant as any.
+          if (critical) {
+            lastStep.resize(0);
+          } else {
+            lastStep = uTry - uCur;
+            lastStep.tail(lastStep.size() - nv).setZero();
+            lastStepLength = beyond - lam;
+          }
           lam = beyond;
           uCur = uTry;
           chartsCur = charts;
