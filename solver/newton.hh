@@ -65,7 +65,9 @@ struct NewtonOptions {
   // (any equilibrium Newton finds; kept for comparisons).
   bool loadingPath = true;
   // A load step is on the path when its converged state lies within this
-  // fraction of the tangent prediction's displacement from that prediction.
+  // fraction of the predicted displacement from the prediction (the secant
+  // through the path's last two equilibria, or the tangent for the first
+  // step; see solveEquilibrium).
   double pathDeviation = 1.0;
   // Set by another thread to stop a solve early (checked where the time
   // limit is; the solve then ends as if its time limit had passed).
@@ -121,8 +123,11 @@ NewtonReport newtonSolve(const PoseSystem& system, const Design& design, PoseSta
 // path allows: the full load in one step first (easy scenes cost one Newton
 // solve), shorter steps where a step is not on the path. A step is on the
 // path when its Newton corrector never meets negative curvature and lands
-// within NewtonOptions::pathDeviation of the tangent prediction's
-// displacement from that prediction (the first Newton step is the tangent);
+// within NewtonOptions::pathDeviation of the predicted displacement from
+// the prediction: the tangent (the first Newton step from the last
+// equilibrium) for the path's first step and the first after a critical
+// point, otherwise the secant through the last two equilibria, from which
+// the corrector starts;
 // steps are halved when not, doubled when the prediction was good. Where no
 // step of 2^-maxLoadHalvings stays on the branch (a limit or bifurcation
 // point) the structure leaves it as a rising load makes it: one unrestricted
