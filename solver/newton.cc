@@ -361,6 +361,10 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     // with the held ones.
     Eigen::VectorXd lastStep;
     double lastStepLength = 0.0;
+    // The last kept step whatever it was (jumps included), to tell a jump
+    // from a step along the path (below).
+    Eigen::VectorXd lastKept;
+    double lastKeptLength = 0.0;
     const int nv = system.numVertexDofs();
     if (unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure) {
       if (path && !r.converged()) {
@@ -412,6 +416,8 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         lastStep = uTry - uCur;
         lastStep.tail(lastStep.size() - nv).setZero();  // twists live in charts that may have moved
         lastStepLength = next - lam;
+        lastKept = lastStep;
+        lastKeptLength = lastStepLength;
         lam = next;
         uCur = uTry;
         chartsCur = charts;
@@ -453,8 +459,21 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         }
         if (rj.converged()) {
           const Stability there = stability(system, design, PoseState{uCur, chartsCur, lam, state.internal});
-          const bool critical = negativeBeyond || (there.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
-                                                   there.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
+          const bool soft = there.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
+                            there.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue;
+          // Negative curvature met beyond lam marks a critical point unless
+          // the state beyond is where the path was heading: within
+          // pathDeviation of the last kept step's displacement scaled to
+          // this one (a path whose every longer step starts at negative
+          // curvature without passing one, e.g. a rod whose end is carried
+          // round while it is compressed, is not a string of jumps).
+          bool heading = false;
+          if (lastKept.size() == uCur.size()) {
+            const Eigen::VectorXd expected = ((beyond - lam) / lastKeptLength) * lastKept;
+            const double along = maxVertexStep(system, expected);
+            heading = along > 0 && maxVertexStep(system, uTry - uCur - expected) <= opt.pathDeviation * along;
+          }
+          const bool critical = soft || (negativeBeyond && !heading);
           if (critical) {
             CriticalPoint cp;
             cp.loadFactor = lam;
@@ -465,12 +484,14 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
           ++pathSteps;
           // No secant across a jump; a smallest step that passed no critical
           // point is as good a secant as any.
+          lastKept = uTry - uCur;
+          lastKept.tail(lastKept.size() - nv).setZero();
+          lastKeptLength = beyond - lam;
           if (critical) {
             lastStep.resize(0);
           } else {
-            lastStep = uTry - uCur;
-            lastStep.tail(lastStep.size() - nv).setZero();
-            lastStepLength = beyond - lam;
+            lastStep = lastKept;
+            lastStepLength = lastKeptLength;
           }
           lam = beyond;
           uCur = uTry;
