@@ -408,6 +408,17 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
       NewtonReport rs = solveAt(next, uTry, next < 1.0 ? stepTol : opt.tolerance, stepOpt,
                                 prediction.size() > 0 ? nullptr : &tangent, path);
       merge(rs);
+      // A step that ran out of iterations while still descending, without
+      // meeting negative curvature, is resumed: a long descent along a soft
+      // mode (a design nearly a mechanism at rest) needs the same motion at
+      // any load, and shorter steps do not shorten it.
+      for (int resume = 0; path && !rs.converged() && rs.outcome == Outcome::MaxIterations && rs.progressing &&
+                           rs.negativeIterations == 0 && rs.escapes == 0 && resume < opt.maxLoadHalvings;
+           ++resume) {
+        rs = solveAt(next, uTry, next < 1.0 ? stepTol : opt.tolerance, stepOpt, nullptr, path);
+        merge(rs);
+        total.resumes++;
+      }
       r = rs;
       if (prediction.size() == 0) prediction = tangent;
       const double deviation = path ? pathDeviation(rs, uCur, uTry, prediction) : (rs.converged() ? 0.0 : -1.0);
@@ -464,14 +475,17 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
           // Negative curvature met beyond lam marks a critical point unless
           // the state beyond is where the path was heading: within
           // pathDeviation of the last kept step's displacement scaled to
-          // this one (a path whose every longer step starts at negative
-          // curvature without passing one, e.g. a rod whose end is carried
-          // round while it is compressed, is not a string of jumps).
+          // this one, or no farther than that displacement (a path whose
+          // every longer step starts at negative curvature without passing
+          // one, e.g. a rod whose end is carried round while it is
+          // compressed, is not a string of jumps; nor is a step shorter than
+          // the path's own pace).
           bool heading = false;
           if (lastKept.size() == uCur.size()) {
             const Eigen::VectorXd expected = ((beyond - lam) / lastKeptLength) * lastKept;
             const double along = maxVertexStep(system, expected);
-            heading = along > 0 && maxVertexStep(system, uTry - uCur - expected) <= opt.pathDeviation * along;
+            heading = along > 0 && (maxVertexStep(system, uTry - uCur - expected) <= opt.pathDeviation * along ||
+                                    maxVertexStep(system, uTry - uCur) <= along);
           }
           const bool critical = soft || (negativeBeyond && !heading);
           if (critical) {

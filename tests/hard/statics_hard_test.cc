@@ -787,6 +787,30 @@ TEST_F(HardStatics, DesignNearlyAMechanismAtRestIsLoadedAlongItsPath) {
   EXPECT_LT(*a.poses[0].rmsError, 1e-4);
 }
 
+// Another such design, made by the reduced method with default flags on the
+// defaults benchmark's small_both case (its final design, 0.066 mm RMS on
+// its own equilibria over three poses; this is the pose that failed): its
+// smallest stiffness eigenvalue at rest is 4.6e-5 N/m. Every load step from
+// rest ran out of its 50 iterations while still descending along the soft
+// mode and was halved, down to the smallest step, whose unrestricted solve
+// stopped descending too: "did not reach the full load ... at load factor
+// 0", the design could not be archived and the run ended `not_converged`.
+// A step that runs out of iterations while descending without negative
+// curvature is resumed instead (shorter steps need the same swing), and
+// the path reaches the equilibrium the optimizer designed.
+TEST_F(HardStatics, DesignNearlyAMechanismAtRestPulledByItsSideReachesItsDesignedEquilibrium) {
+  const std::string scene = std::string(RODMESH_SOURCE_DIR) + "/tests/hard/data/nearly_a_mechanism_pulled.json";
+  const RunResult r = run("simulate " + clitest::shellQuote(scene) + " -o out.h5");
+  EXPECT_EQ(r.status, 0) << r.err;
+  const Archive a = archive();
+  EXPECT_EQ(a.status, "converged");
+  ASSERT_EQ(a.poses.size(), 1u);
+  EXPECT_EQ(a.poses[0].stable, 1);
+  EXPECT_EQ(a.poses[0].criticalPoints.rows(), 0) << "a swing along a soft mode is no jump";
+  ASSERT_TRUE(a.poses[0].rmsError.has_value());
+  EXPECT_LT(*a.poses[0].rmsError, 1e-4) << "the designed equilibrium (0.0785 mm from the targets)";
+}
+
 #ifdef RODMESH_HAS_GRID
 // The Sheet (hex cells, 693 vertices) pinned (fixed, not clamped) along its
 // left side, a force normal to it at the far corner. The pinned vertices
