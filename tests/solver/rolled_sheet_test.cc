@@ -46,6 +46,29 @@ Scene rolledSheet(double degrees) {
   return s;
 }
 
+// The pose's equilibrium at the full load reached in `steps` equal load
+// steps, Newton from each equilibrium to the next (a natural continuation
+// without step control: the reference path).
+PoseState equalSteps(const PoseSystem& sys, const Design& d, int steps) {
+  const double scale = loadScale(sys, d);
+  PoseState walk = sys.restState(d);
+  for (int k = 1; k <= steps; ++k) {
+    walk.loadFactor = static_cast<double>(k) / steps;
+    const NewtonReport rk = newtonSolve(sys, d, walk, scale, 1e-10, NewtonOptions{});
+    EXPECT_TRUE(rk.converged()) << "step " << k << ": " << rk.message;
+    if (!rk.converged()) break;
+  }
+  return walk;
+}
+
+// Largest distance between the vertices of two states of one pose.
+double largestGap(const PoseSystem& sys, const Design& d, const PoseState& a, const PoseState& b) {
+  const std::vector<Vec3> x = sys.positions(a, d), y = sys.positions(b, d);
+  double gap = 0.0;
+  for (std::size_t v = 0; v < x.size(); ++v) gap = std::max(gap, (x[v] - y[v]).norm());
+  return gap;
+}
+
 TEST(RolledSheet, TheLoadingPathTakesAFewStepsAndIsTheOneFollowedInSmallSteps) {
   const Scene s = rolledSheet(120.0);
   const SceneModel model(s);
@@ -59,24 +82,13 @@ TEST(RolledSheet, TheLoadingPathTakesAFewStepsAndIsTheOneFollowedInSmallSteps) {
   EXPECT_TRUE(r.criticalPoints.empty()) << r.message;
   EXPECT_LE(r.loadSteps, 40) << "a smooth path in a few steps";
 
-  // The same path followed in 200 equal load steps, Newton from each
-  // equilibrium to the next: the same equilibrium at the full load.
-  const double scale = loadScale(sys, d);
-  PoseState walk = sys.restState(d);
-  const int steps = 200;
-  for (int k = 1; k <= steps; ++k) {
-    walk.loadFactor = static_cast<double>(k) / steps;
-    const NewtonReport rk = newtonSolve(sys, d, walk, scale, 1e-10, NewtonOptions{});
-    ASSERT_TRUE(rk.converged()) << "step " << k << ": " << rk.message;
-  }
-  const std::vector<Vec3> x = sys.positions(state, d), y = sys.positions(walk, d);
-  double gap = 0.0, moved = 0.0;
-  for (std::size_t v = 0; v < x.size(); ++v) {
-    gap = std::max(gap, (x[v] - y[v]).norm());
-    moved = std::max(moved, (x[v] - s.vertices[v]).norm());
-  }
+  double moved = 0.0;
+  const std::vector<Vec3> x = sys.positions(state, d);
+  for (std::size_t v = 0; v < x.size(); ++v) moved = std::max(moved, (x[v] - s.vertices[v]).norm());
   EXPECT_GT(moved, 0.05) << "the handle went round";
-  EXPECT_LT(gap, 1e-6) << "the loading path's equilibrium is the one reached in small steps";
+  // The same equilibrium as 200 equal load steps reach.
+  EXPECT_LT(largestGap(sys, d, state, equalSteps(sys, d, 200)), 1e-6)
+      << "the loading path's equilibrium is the one reached in small steps";
 }
 
 // A rod (100 mm, r = 2 x 1 mm) held at one end whose other end (its last
@@ -119,18 +131,7 @@ TEST(RolledSheet, ARodWhoseEndIsCarriedRoundReportsNoJumpsAlongItsSmoothPath) {
   for (const CriticalPoint& cp : r.criticalPoints) EXPECT_LT(cp.loadFactor, 0.005) << r.message;
 
   // The same equilibrium as 1000 equal load steps reach.
-  const double scale = loadScale(sys, d);
-  PoseState walk = sys.restState(d);
-  const int steps = 1000;
-  for (int k = 1; k <= steps; ++k) {
-    walk.loadFactor = static_cast<double>(k) / steps;
-    const NewtonReport rk = newtonSolve(sys, d, walk, scale, 1e-10, NewtonOptions{});
-    ASSERT_TRUE(rk.converged()) << "step " << k << ": " << rk.message;
-  }
-  const std::vector<Vec3> x = sys.positions(state, d), y = sys.positions(walk, d);
-  double gap = 0.0;
-  for (std::size_t v = 0; v < x.size(); ++v) gap = std::max(gap, (x[v] - y[v]).norm());
-  EXPECT_LT(gap, 1e-6);
+  EXPECT_LT(largestGap(sys, d, state, equalSteps(sys, d, 1000)), 1e-6);
 }
 
 }  // namespace
