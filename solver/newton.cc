@@ -335,6 +335,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     Eigen::VectorXd uCur = fromGiven ? u : rest.u;
     PoseSystem::Charts chartsCur = fromGiven ? state.charts : rest.charts;
     double lam = fromGiven ? state.loadFactor : 0.0;
+    const double startLam = lam;
     double step = 0.5 * (1.0 - lam);
     const double minStep = std::ldexp(1.0, -opt.maxLoadHalvings);
     // Intermediate load steps need not be tight, but never sloppy.
@@ -487,6 +488,11 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
             heading = along > 0 && (maxVertexStep(system, uTry - uCur - expected) <= opt.pathDeviation * along ||
                                     maxVertexStep(system, uTry - uCur) <= along);
           }
+          // Nor is the first step from a stable start: a positive definite
+          // stiffness there keeps the equilibrium under small enough loads;
+          // the negative curvature met by longer steps is that of their
+          // starting states (the held vertices moved, the free ones not).
+          if (lam == startLam && there.ok && there.smallestEigenvalue > 0) heading = true;
           const bool critical = soft || (negativeBeyond && !heading);
           if (critical) {
             CriticalPoint cp;
