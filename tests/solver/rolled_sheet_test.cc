@@ -11,11 +11,14 @@
 // shape_small, a sheet like it).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "meshing/grid.hh"
 #include "model/scene_model.hh"
 #include "solver/newton.hh"
+#include "tests/testutil/solve.hh"
 
 namespace rodmesh {
 namespace {
@@ -46,10 +49,13 @@ Scene rolledSheet(double degrees) {
   return s;
 }
 
-// The pose's equilibrium at the full load reached in `steps` equal load
-// steps, Newton from each equilibrium to the next (a natural continuation
-// without step control: the reference path).
-PoseState equalSteps(const PoseSystem& sys, const Design& d, int steps) {
+// The first pose's vertex positions at the full load reached in `steps`
+// equal load steps, Newton from each equilibrium to the next (a natural
+// continuation without step control: the reference path).
+std::vector<Vec3> equalSteps(const Scene& s, int steps) {
+  const SceneModel model(s);
+  const PoseSystem& sys = model.pose(0);
+  const Design d = Design::fromScene(s);
   const double scale = loadScale(sys, d);
   PoseState walk = sys.restState(d);
   for (int k = 1; k <= steps; ++k) {
@@ -58,36 +64,28 @@ PoseState equalSteps(const PoseSystem& sys, const Design& d, int steps) {
     EXPECT_TRUE(rk.converged()) << "step " << k << ": " << rk.message;
     if (!rk.converged()) break;
   }
-  return walk;
+  return sys.positions(walk, d);
 }
 
-// Largest distance between the vertices of two states of one pose.
-double largestGap(const PoseSystem& sys, const Design& d, const PoseState& a, const PoseState& b) {
-  const std::vector<Vec3> x = sys.positions(a, d), y = sys.positions(b, d);
+double largestGap(const std::vector<Vec3>& x, const std::vector<Vec3>& y) {
   double gap = 0.0;
-  for (std::size_t v = 0; v < x.size(); ++v) gap = std::max(gap, (x[v] - y[v]).norm());
+  for (std::size_t v = 0; v < x.size() && v < y.size(); ++v) gap = std::max(gap, (x[v] - y[v]).norm());
   return gap;
 }
 
 TEST(RolledSheet, TheLoadingPathTakesAFewStepsAndIsTheOneFollowedInSmallSteps) {
   const Scene s = rolledSheet(120.0);
-  const SceneModel model(s);
-  const PoseSystem& sys = model.pose(0);
-  const Design d = Design::fromScene(s);
-
-  PoseState state = sys.restState(d);
-  const NewtonReport r = solveEquilibrium(sys, d, state, NewtonOptions{});
+  // Along the loading path, as `rodmesh simulate` solves it.
+  const testutil::Solved solved = testutil::solve(s);
+  const NewtonReport& r = solved.report;
   ASSERT_TRUE(r.converged()) << r.message;
-  EXPECT_EQ(state.loadFactor, 1.0);
+  EXPECT_EQ(r.loadFactor, 1.0);
   EXPECT_TRUE(r.criticalPoints.empty()) << r.message;
   EXPECT_LE(r.loadSteps, 40) << "a smooth path in a few steps";
 
-  double moved = 0.0;
-  const std::vector<Vec3> x = sys.positions(state, d);
-  for (std::size_t v = 0; v < x.size(); ++v) moved = std::max(moved, (x[v] - s.vertices[v]).norm());
-  EXPECT_GT(moved, 0.05) << "the handle went round";
+  EXPECT_GT(largestGap(solved.x, s.vertices), 0.05) << "the handle went round";
   // The same equilibrium as 200 equal load steps reach.
-  EXPECT_LT(largestGap(sys, d, state, equalSteps(sys, d, 200)), 1e-6)
+  EXPECT_LT(largestGap(solved.x, equalSteps(s, 200)), 1e-6)
       << "the loading path's equilibrium is the one reached in small steps";
 }
 
@@ -121,12 +119,9 @@ TEST(RolledSheet, ARodWhoseEndIsCarriedRoundReportsNoJumpsAlongItsSmoothPath) {
   pose.name = "roll";
   pose.fixed = {{0, std::nullopt}, {1, std::nullopt}, {n - 2, rolled(L * (n - 2) / (n - 1))}, {n - 1, rolled(L)}};
   s.poses.push_back(pose);
-  const SceneModel model(s);
-  const PoseSystem& sys = model.pose(0);
-  const Design d = Design::fromScene(s);
-
-  PoseState state = sys.restState(d);
-  const NewtonReport r = solveEquilibrium(sys, d, state, NewtonOptions{});
+  // Along the loading path, as `rodmesh simulate` solves it.
+  const testutil::Solved solved = testutil::solve(s);
+  const NewtonReport& r = solved.report;
   ASSERT_TRUE(r.converged()) << r.message;
   EXPECT_LE(r.criticalPoints.size(), 2u) << r.message;
   for (const CriticalPoint& cp : r.criticalPoints) {
@@ -135,7 +130,7 @@ TEST(RolledSheet, ARodWhoseEndIsCarriedRoundReportsNoJumpsAlongItsSmoothPath) {
   }
 
   // The same equilibrium as 1000 equal load steps reach.
-  EXPECT_LT(largestGap(sys, d, state, equalSteps(sys, d, 1000)), 1e-6);
+  EXPECT_LT(largestGap(solved.x, equalSteps(s, 1000)), 1e-6);
 }
 
 }  // namespace
