@@ -193,7 +193,16 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
       rep.message = "met negative curvature";
       break;
     }
-    if (small && negative == 0) {
+    // For statics, test (1) also asks the Newton correction (the first-order
+    // estimate of the position error) to move no vertex by more than
+    // tolerance x the structure's size: along a soft mode of stiffness k a
+    // residual r leaves an error r / k, and a near-mechanism (the optimizers'
+    // designs reach k of 1e-3 N/m) held far from rest (a large load scale)
+    // would otherwise pass with errors up to tolerance x scale / k. With a
+    // modified factorization the correction says nothing about the error.
+    const bool preciseEnough = inertia || !factorOk || !haveDir || modified ||
+                               maxVertexStep(system, d) <= opt.tolerance * size;
+    if (small && negative == 0 && preciseEnough) {
       rep.outcome = Outcome::Converged;
       rep.message = "force residual below tolerance";
       break;
@@ -302,7 +311,7 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
         continue;
       }
     }
-    if (opt.stableOnly && (small || (atFloor && negative > 0 && escapes >= opt.maxEscapes))) {
+    if (opt.stableOnly && negative > 0 && (small || (atFloor && escapes >= opt.maxEscapes))) {
       // An equilibrium, but a saddle that the escapes could not leave: not a
       // solution (a perturbation would carry the structure away from it).
       rep.outcome = Outcome::Stalled;

@@ -12,7 +12,8 @@
 // as the last resort), an Armijo backtracking line search, optionally a trust
 // radius on the vertex displacements and steps along negative curvature away
 // from saddles. Its stopping tests are those documented in solver/newton.hh:
-// (1) |r| <= tolerance * scale; (2) r at the round-off floor with a Newton
+// (1) |r| <= tolerance * scale (for statics with a Newton correction within
+// tolerance * size); (2) r at the round-off floor with a Newton
 // decrement below the energy of rounding the unknowns (the inertia term's
 // own round-off added for a time step); (3) a Newton correction below the
 // resolution of every unknown. The settings say which of the two problems is
