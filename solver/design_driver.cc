@@ -641,7 +641,9 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     if (confirmed && confirmed->objective < best.objective)
       best = {confirmed->controls, confirmed->design,         confirmed->objective, confirmed->rms,
               confirmed->states,   confirmed->label + " (confirmed from rest during the run)"};
-    if (best.objective < res_.objective) {
+    // The last design itself, kept on its path at its phase's end, differs
+    // from the result only by the round-off between its two equilibria.
+    if (!sameControls(best.controls, res_.controls) && best.objective < res_.objective) {
       message += "; the last design as loaded from rest (RMS " + millimetres(res_.rms) + ") is worse than " +
                  best.label + " (RMS " + millimetres(best.rms) + "), which is the result";
       adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);

@@ -346,6 +346,52 @@ TEST(DesignDriver, ARunWorseOnThePathThanItsStartKeepsTheStart) {
   EXPECT_NEAR(a.rms, r.initialRms, 1e-9);
 }
 
+// A run that went on from the loading path and whose last phase ends on its
+// path, with a design better than any before, is converged with that design:
+// the best design on its path is then the last design itself, whatever the
+// objectives of its two equilibria (the optimizer's and the loading path's,
+// equal to the solver's tolerance) say. The phase proposes the initial arch
+// inverted (off its path), then thinner arches with an equilibrium under
+// 1.0005 times the load: within the driver's tolerance, farther from the
+// targets than the loading path's equilibrium.
+TEST(DesignDriver, ARunThatWentOnFromThePathAndEndsOnItIsConverged) {
+  Scene s = testutil::invertibleArch();
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  const ControlValues c0 = space.initialControls(s);
+  const Design d0 = space.toDesign(c0);
+  const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
+  targetsBelow(s, model.pose(0), inverted, d0);
+  SceneModel targeted(s);
+  Scene heavier = s;
+  heavier.poses[0].forces[0].force *= 1.0005;
+  const SceneModel heavierModel(heavier);
+  DesignOptimizerOptions options = driverOptions();
+  options.newton.tolerance = 1e-3;
+  NewtonOptions tight;
+  tight.tolerance = 1e-12;
+  for (const double scale : {0.6, 0.7, 0.75}) {
+    ControlValues thin = c0;
+    thin.radii *= scale;
+    const Design d = space.toDesign(thin);
+    std::vector<PoseState> early{heavierModel.pose(0).restState(d)};
+    ASSERT_TRUE(solvePosesFrom(heavierModel, d, early, tight, 1));
+    ASSERT_LT(heavierModel.pose(0).positions(early[0], d)[20].z(), -0.04) << "the thin arch snaps through from rest";
+    ScriptedPhases phases;
+    phases.script = [&](const PhaseTask& task, PhaseContext&) {
+      PhaseResult r;
+      r.iterations = 5;
+      r.candidates.push_back(task.attempt == 0 ? PhaseCandidate{c0, {inverted}} : PhaseCandidate{thin, early});
+      return r;
+    };
+    const DesignOptimizerResult r = runDesign(targeted, space, options, phases);
+    ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
+    EXPECT_TRUE(sameControls(r.controls, thin)) << "radii x " << scale << ": " << r.message;
+    EXPECT_EQ(r.outcome, Outcome::Converged) << "radii x " << scale << ": " << r.message;
+    EXPECT_EQ(r.message.find("is worse than"), std::string::npos) << r.message;
+  }
+}
+
 // The same targets with a real reduced run, radii free in [4, 6] mm: at
 // 4 mm the arch's limit load is below 0.2 N (EI ~ r^4: 0.41 x 0.44 N), so
 // thin designs snap through when loaded from rest. Whatever branch the
