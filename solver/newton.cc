@@ -345,9 +345,9 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     int pathSteps = 0;            // load steps kept (jumps past critical points included)
     // The prediction of a load step: the secant through the last two
     // equilibria of the path, scaled to the step, when there are two
-    // (`lastStep`: the vertex part of the last step kept, over
-    // `lastStepLength` of load; empty before the first step and after a
-    // critical point), the corrector starting from the predicted state; the
+    // (`lastKept`: the vertex part of the last step kept, over
+    // `lastKeptLength` of load; not after a critical point, `afterJump`),
+    // the corrector starting from the predicted state; the
     // tangent otherwise (the first Newton step from the last equilibrium).
     // The tangent alone misjudges a path along which stiff members turn (a
     // handle rolled through a large angle): Newton's linear step stretches
@@ -360,12 +360,11 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     // curvature at the first iterate, on a path that has none. The secant
     // follows a turning path to second order and moves the free vertices
     // with the held ones.
-    Eigen::VectorXd lastStep;
-    double lastStepLength = 0.0;
-    // The last kept step whatever it was (jumps included), to tell a jump
-    // from a step along the path (below).
-    Eigen::VectorXd lastKept;
+    // The last kept step is kept whatever it was (jumps included), to tell a
+    // jump from a step along the path (below).
+    Eigen::VectorXd lastKept;  // empty before the first step
     double lastKeptLength = 0.0;
+    bool afterJump = false;  // the last kept step passed a critical point
     const int nv = system.numVertexDofs();
     if (unloaded.zeroMode() && r.outcome != Outcome::NumericalFailure) {
       if (path && !r.converged()) {
@@ -402,8 +401,8 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
       uTry = uCur;
       tangent.resize(0);
       Eigen::VectorXd prediction;
-      if (path && lastStep.size() == uCur.size()) {
-        prediction = ((next - lam) / lastStepLength) * lastStep;
+      if (path && !afterJump && lastKept.size() == uCur.size()) {
+        prediction = ((next - lam) / lastKeptLength) * lastKept;
         uTry += prediction;
       }
       NewtonReport rs = solveAt(next, uTry, next < 1.0 ? stepTol : opt.tolerance, stepOpt,
@@ -425,11 +424,10 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
       const double deviation = path ? pathDeviation(rs, uCur, uTry, prediction) : (rs.converged() ? 0.0 : -1.0);
       if (deviation >= 0.0) {
         ++pathSteps;
-        lastStep = uTry - uCur;
-        lastStep.tail(lastStep.size() - nv).setZero();  // twists live in charts that may have moved
-        lastStepLength = next - lam;
-        lastKept = lastStep;
-        lastKeptLength = lastStepLength;
+        lastKept = uTry - uCur;
+        lastKept.tail(lastKept.size() - nv).setZero();  // twists live in charts that may have moved
+        lastKeptLength = next - lam;
+        afterJump = false;
         lam = next;
         uCur = uTry;
         chartsCur = charts;
@@ -507,12 +505,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
           lastKept = uTry - uCur;
           lastKept.tail(lastKept.size() - nv).setZero();
           lastKeptLength = beyond - lam;
-          if (critical) {
-            lastStep.resize(0);
-          } else {
-            lastStep = lastKept;
-            lastStepLength = lastKeptLength;
-          }
+          afterJump = critical;
           lam = beyond;
           uCur = uTry;
           chartsCur = charts;
