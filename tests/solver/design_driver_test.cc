@@ -9,6 +9,7 @@
 
 #include <cstdio>
 #include <functional>
+#include <memory>
 
 #include "model/design_space.hh"
 #include "solver/design_fallback.hh"
@@ -234,17 +235,39 @@ TEST(DesignDriver, LimitsStopBetweenPhases) {
 // when the phase ends off the path a second time, the run is not converged
 // and keeps the optimizer's equilibria, so that the archive marks the design
 // off the path.
+// The shallow arch of testutil::invertibleArch with targets 1 mm below its
+// inverted equilibrium (targetsBelow): the scene's model, design space and
+// initial design, that equilibrium, and the model of the targeted scene.
+struct ArchTargetedInverted {
+  explicit ArchTargetedInverted(bool restShape = false) : s(makeArch(restShape)), model(s), space(s, model.effects()) {
+    c0 = space.initialControls(s);
+    d0 = space.toDesign(c0);
+    inverted = testutil::invertedArchState(s, model.pose(0), d0);
+    targetsBelow(s, model.pose(0), inverted, d0);
+    targeted = std::make_unique<SceneModel>(s);
+  }
+  static Scene makeArch(bool restShape) {
+    Scene a = testutil::invertibleArch();
+    a.design.restShape = restShape;
+    return a;
+  }
+  Scene s;
+  SceneModel model;
+  DesignSpace space;
+  ControlValues c0;
+  Design d0;
+  PoseState inverted;
+  std::unique_ptr<SceneModel> targeted;
+};
+
 TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
-  Scene s = testutil::invertibleArch();
-  SceneModel model(s);
-  const DesignSpace space(s, model.effects());
-  const ControlValues c0 = space.initialControls(s);
-  const Design d0 = space.toDesign(c0);
-  const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
-  const std::vector<Vec3> down = model.pose(0).positions(inverted, d0);
-  ASSERT_LT(down[20].z(), -0.04);
-  targetsBelow(s, model.pose(0), inverted, d0);
-  SceneModel targeted(s);
+  const ArchTargetedInverted arch;
+  const DesignSpace& space = arch.space;
+  const ControlValues& c0 = arch.c0;
+  const Design& d0 = arch.d0;
+  const PoseState& inverted = arch.inverted;
+  const SceneModel& targeted = *arch.targeted;
+  ASSERT_LT(arch.model.pose(0).positions(inverted, d0)[20].z(), -0.04);
   ScriptedPhases phases;
   phases.script = proposing(c0, inverted);
   const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
@@ -273,15 +296,12 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
 // again from it. (The scripted phase proposes the same off-path design
 // again; the result is then the best design on its loading path, stalled.)
 TEST(DesignDriver, ARestShapeSeededTowardsTheDesignedBranchBringsThePathOntoIt) {
-  Scene s = testutil::invertibleArch();
-  s.design.restShape = true;
-  SceneModel model(s);
-  const DesignSpace space(s, model.effects());
-  const ControlValues c0 = space.initialControls(s);
-  const Design d0 = space.toDesign(c0);
-  const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
-  targetsBelow(s, model.pose(0), inverted, d0);
-  SceneModel targeted(s);
+  const ArchTargetedInverted arch(/*restShape=*/true);
+  const DesignSpace& space = arch.space;
+  const ControlValues& c0 = arch.c0;
+  const Design& d0 = arch.d0;
+  const PoseState& inverted = arch.inverted;
+  const SceneModel& targeted = *arch.targeted;
   ScriptedPhases phases;
   phases.script = proposing(c0, inverted);
   const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
@@ -355,15 +375,12 @@ TEST(DesignDriver, ARunWorseOnThePathThanItsStartKeepsTheStart) {
 // 1.0005 times the load: within the driver's tolerance, farther from the
 // targets than the loading path's equilibrium.
 TEST(DesignDriver, ARunThatWentOnFromThePathAndEndsOnItIsConverged) {
-  Scene s = testutil::invertibleArch();
-  SceneModel model(s);
-  const DesignSpace space(s, model.effects());
-  const ControlValues c0 = space.initialControls(s);
-  const Design d0 = space.toDesign(c0);
-  const PoseState inverted = testutil::invertedArchState(s, model.pose(0), d0);
-  targetsBelow(s, model.pose(0), inverted, d0);
-  SceneModel targeted(s);
-  Scene heavier = s;
+  const ArchTargetedInverted arch;
+  const DesignSpace& space = arch.space;
+  const ControlValues& c0 = arch.c0;
+  const PoseState& inverted = arch.inverted;
+  const SceneModel& targeted = *arch.targeted;
+  Scene heavier = arch.s;
   heavier.poses[0].forces[0].force *= 1.0005;
   const SceneModel heavierModel(heavier);
   DesignOptimizerOptions options = driverOptions();
