@@ -24,7 +24,7 @@ Command registerSimulate(CLI::App& root, const GlobalOptions& global) {
       ->check(CLI::IsMember({"newton", "relaxation"}))
       ->capture_default_str();
   app->add_option("--tol", opts->newton.tolerance,
-                  "force residual tolerance, relative to the load scale (static solve; with --dynamic, per time step)")
+                  "force residual tolerance, relative to the load scale; a static solve also brings its Newton correction within tol x the structure's size (with --dynamic, per time step)")
       ->check(realNumberIn(kSimulateTolRange))
       ->capture_default_str();
   app->add_option(
