@@ -199,8 +199,10 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
     // residual r leaves an error r / k, and a near-mechanism (the optimizers'
     // designs reach k of 1e-3 N/m) held far from rest (a large load scale)
     // would otherwise pass with errors up to tolerance x scale / k. With a
-    // modified factorization the correction says nothing about the error.
-    const bool preciseEnough = inertia || !factorOk || !haveDir || modified ||
+    // modified factorization, or a residual at its round-off floor (then the
+    // correction along a soft mode is noise / k, not an error the next
+    // iterate can remove), the correction says nothing about the error.
+    const bool preciseEnough = inertia || !factorOk || !haveDir || modified || res <= floorForce ||
                                maxVertexStep(system, d) <= opt.tolerance * size;
     if (small && negative == 0 && preciseEnough) {
       rep.outcome = Outcome::Converged;

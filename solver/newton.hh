@@ -19,10 +19,11 @@
 // which):
 //   1. |r| <= tolerance * load scale, the load scale being the residual of the
 //      undeformed configuration under the full load (point forces, weight,
-//      prescribed displacements), and, with an unmodified factorization, a
-//      Newton correction (the first-order position error) that moves no
-//      vertex by more than tolerance * the structure's size: along a soft
-//      mode the residual alone would pass large errors (r / stiffness);
+//      prescribed displacements), and, with an unmodified factorization and
+//      r above its round-off floor (2.), a Newton correction (the first-order
+//      position error) that moves no vertex by more than tolerance * the
+//      structure's size: along a soft mode the residual alone would pass
+//      large errors (r / stiffness);
 //   2. the round-off floor: |r| <= the residual that rounding the unknowns to
 //      double precision alone produces, estimated from the actual stiffness and
 //      unknowns as  rho_i = eps sqrt(sum_j H_ij^2 a_j^2),  a_j = |u_j| + s_j
