@@ -202,9 +202,11 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
     // modified factorization, or a residual at its round-off floor (then the
     // correction along a soft mode is noise / k, not an error the next
     // iterate can remove), the correction says nothing about the error.
-    const bool preciseEnough = inertia || !factorOk || !haveDir || modified || res <= floorForce ||
-                               maxVertexStep(system, d) <= opt.tolerance * size;
-    if (small && negative == 0 && preciseEnough) {
+    // The correction is measured only once the residual test passes.
+    const bool test1Met = small && negative == 0 &&
+                          (inertia || !factorOk || !haveDir || modified || res <= floorForce ||
+                           maxVertexStep(system, d) <= opt.tolerance * size);
+    if (test1Met) {
       rep.outcome = Outcome::Converged;
       rep.message = "force residual below tolerance";
       break;

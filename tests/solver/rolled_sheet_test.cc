@@ -68,6 +68,7 @@ std::vector<Vec3> equalSteps(const Scene& s, int steps) {
 }
 
 double largestGap(const std::vector<Vec3>& x, const std::vector<Vec3>& y) {
+  EXPECT_EQ(x.size(), y.size());
   double gap = 0.0;
   for (std::size_t v = 0; v < x.size() && v < y.size(); ++v) gap = std::max(gap, (x[v] - y[v]).norm());
   return gap;
