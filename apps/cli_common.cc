@@ -163,6 +163,7 @@ ArchivePose makeArchivePose(const std::string& name, const std::vector<Vec3>& po
   p.outOfPlaneStable = solve.outOfPlaneStable;
   p.stable = solve.stable;
   p.smallestEigenvalue = solve.smallestEigenvalue;
+  p.unloadedSmallestEigenvalue = solve.unloadedSmallestEigenvalue;
   p.criticalPoints = solve.criticalPoints;
   return p;
 }
@@ -198,12 +199,24 @@ std::string formatSeconds(double s) {
   return buf;
 }
 
+std::string criticalPointNote(const PoseResult& p) {
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "pose '%s' is at a critical point of its loading path (smallest stiffness eigenvalue %.3g N/m, "
+                "%.2g of the unloaded structure's): a little more load or a small imperfection makes it snap or "
+                "buckle to another equilibrium",
+                p.name.c_str(), p.smallestEigenvalue.value_or(0.0),
+                p.smallestEigenvalue.value_or(0.0) / p.unloadedSmallestEigenvalue.value_or(1.0));
+  return buf;
+}
+
 PoseSolveSummary newtonSolveSummary(const PoseResult& pr) {
   PoseSolveSummary sum;
   sum.solve = pr.report;
   if (pr.outOfPlaneStable) sum.outOfPlaneStable = *pr.outOfPlaneStable ? 1 : 0;
   if (pr.stable) sum.stable = *pr.stable ? 1 : 0;
   sum.smallestEigenvalue = pr.smallestEigenvalue;
+  sum.unloadedSmallestEigenvalue = pr.unloadedSmallestEigenvalue;
   const auto& cps = pr.report.criticalPoints;
   sum.criticalPoints.resize(static_cast<Eigen::Index>(cps.size()), 3);
   for (std::size_t k = 0; k < cps.size(); ++k)

@@ -58,12 +58,17 @@ struct PoseSolveSummary {
   int outOfPlaneStable = -1;  // 1/0 for planar Newton solves, -1 unknown (not written)
   int stable = -1;            // 1/0: the state is a stable equilibrium; -1 unknown (not written)
   std::optional<double> smallestEigenvalue;  // N/m
+  std::optional<double> unloadedSmallestEigenvalue;  // N/m, of the rest state under the pose's supports
   MatX3 criticalPoints;                      // load factor, eigenvalue (N/m), jump (m) per row
 };
 
 // The summary of a pose solved by Newton (simulateAll): non-finite loads or
 // states, and problems without a solution, fail.
 PoseSolveSummary newtonSolveSummary(const PoseResult& pr);
+
+// "pose 'NAME' is at a critical point (...)": what a stable equilibrium with
+// PoseResult::atCriticalPoint() means for the object.
+std::string criticalPointNote(const PoseResult& p);
 
 // Row-per-entry matrices for the archive.
 MatX3 toRows(const std::vector<Vec3>& v);

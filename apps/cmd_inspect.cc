@@ -1,6 +1,7 @@
 // rodmesh inspect ARCHIVE.h5: a human summary of a result archive.
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
+#include "solver/newton.hh"  // kCriticalStiffnessRatio
 
 #include <algorithm>
 #include <cmath>
@@ -67,6 +68,15 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
       if (p.stable >= 0 || p.smallestEigenvalue) {
         std::printf("          %s", p.stable == 1 ? "stable" : p.stable == 0 ? "UNSTABLE" : "stability unknown");
         if (p.smallestEigenvalue) std::printf(", smallest stiffness eigenvalue %.4g N/m", *p.smallestEigenvalue);
+        if (p.smallestEigenvalue && p.unloadedSmallestEigenvalue && *p.unloadedSmallestEigenvalue > 0) {
+          // Only the critical case is worth the comparison (a structure
+          // that is a mechanism at rest has no stiffness to compare with).
+          const double ratio = *p.smallestEigenvalue / *p.unloadedSmallestEigenvalue;
+          if (p.stable == 1 && ratio <= kCriticalStiffnessRatio)
+            std::printf(" (%.2g of the unloaded structure's): at a critical point, a little more load or a small "
+                        "imperfection makes it snap or buckle",
+                        ratio);
+        }
         std::printf("\n");
       }
       for (Eigen::Index k = 0; k < p.criticalPoints.rows(); ++k)

@@ -138,6 +138,11 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
                   unstablePose.c_str(), inPlaneRms * 1e3, chosen.rms * 1e3);
     chosen.note += (chosen.note.empty() ? "" : "; ") + std::string(buf);
   }
+  // A design whose pose sits at a critical point reaches its equilibrium
+  // only as built and loaded exactly: say so (optimizers run to such
+  // points when a target lies beyond the branch's end).
+  for (const PoseResult& p : chosen.simulation.poses)
+    if (p.atCriticalPoint()) chosen.note += (chosen.note.empty() ? "" : "; ") + criticalPointNote(p);
   if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
   Archive a = optimizeArchive(scene, *archiveModel, space, r, chosen, o.method);
   a.version = versionString();

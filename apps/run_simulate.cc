@@ -242,6 +242,8 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
         for (const CriticalPoint& cp : pr.report.criticalPoints)
           std::cerr << "  critical point at load factor " << cp.loadFactor << " (smallest stiffness eigenvalue "
                     << cp.smallestEigenvalue << " N/m): jumped " << cp.jump * 1e3 << " mm to the equilibrium beyond\n";
+      if (!quiet && pr.atCriticalPoint())
+        std::cerr << "  note: " << criticalPointNote(pr) << "\n";
       if (!quiet && solve.outOfPlaneStable == 0)
         std::cerr << "  note: this in-plane equilibrium is unstable out of plane (a saddle of the 3D model)"
                   << (mayLeavePlane ? "; the scene is solved again in 3D\n"

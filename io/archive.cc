@@ -206,6 +206,8 @@ void writeContents(const Archive& a, hid_t file) {
       if (p.stable >= 0) writeScalarAttr<int>(g, "stable", p.stable, H5T_NATIVE_INT);
       if (p.smallestEigenvalue)
         writeScalarAttr<double>(g, "smallest_eigenvalue", *p.smallestEigenvalue, H5T_NATIVE_DOUBLE);
+      if (p.unloadedSmallestEigenvalue)
+        writeScalarAttr<double>(g, "unloaded_smallest_eigenvalue", *p.unloadedSmallestEigenvalue, H5T_NATIVE_DOUBLE);
       if (p.criticalPoints.rows() > 0)
         writeDoubles(g, "critical_points", p.criticalPoints.data(), {(hsize_t)p.criticalPoints.rows(), 3});
       if (p.initialPositions.rows() > 0)

@@ -69,6 +69,10 @@ struct ArchivePose {
   // jump (m).
   int stable = -1;
   std::optional<double> smallestEigenvalue;
+  // Extension: the same eigenvalue of the unloaded structure (the rest state
+  // under the pose's supports), N/m; a stable state with at most
+  // kCriticalStiffnessRatio (solver/newton.hh) of it is at a critical point.
+  std::optional<double> unloadedSmallestEigenvalue;
   MatX3 criticalPoints;
   // optimize only:
   MatX3 initialPositions;                // equilibrium under the initial design; empty: not written

@@ -554,6 +554,7 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
       p.outOfPlaneStable = static_cast<int>(r.integerAttr(g, gp, "out_of_plane_stable", false, 0, 1).value_or(-1));
       p.stable = static_cast<int>(r.integerAttr(g, gp, "stable", false, 0, 1).value_or(-1));
       p.smallestEigenvalue = r.numberAttr(g, gp, "smallest_eigenvalue", false);
+      p.unloadedSmallestEigenvalue = r.numberAttr(g, gp, "unloaded_smallest_eigenvalue", false);
       if (auto t = r.numbers(g, gp, "critical_points", false, {kAny, 3},
                              "K x 3 (load factor, smallest eigenvalue, jump per critical point)"))
         p.criticalPoints = rowsOf<3>(*t);
@@ -971,6 +972,8 @@ void validateArchive(const Archive& a, const Scene& scene, const std::string& pa
     if (p.rmsError && p.target.rows() == 0) fail(g + " attribute rms_error", "is given, but the pose has no target");
     if (p.equilibriumGap) finiteNumber(*p.equilibriumGap, g + " attribute equilibrium_gap");
     if (p.smallestEigenvalue) finiteNumber(*p.smallestEigenvalue, g + " attribute smallest_eigenvalue");
+    if (p.unloadedSmallestEigenvalue)
+      finiteNumber(*p.unloadedSmallestEigenvalue, g + " attribute unloaded_smallest_eigenvalue");
     finite(p.criticalPoints.data(), p.criticalPoints.rows(), 3, g + "/critical_points");
     finiteNumber(p.timeSeconds, g + " attribute time_s");
   }

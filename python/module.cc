@@ -326,6 +326,8 @@ py::dict archiveDict(const Archive& a) {
     q["stable"] = p.stable >= 0 ? py::object(py::bool_(p.stable == 1)) : py::none();
     q["out_of_plane_stable"] = p.outOfPlaneStable >= 0 ? py::object(py::bool_(p.outOfPlaneStable == 1)) : py::none();
     q["smallest_eigenvalue"] = p.smallestEigenvalue ? py::object(py::float_(*p.smallestEigenvalue)) : py::none();
+    q["unloaded_smallest_eigenvalue"] =
+        p.unloadedSmallestEigenvalue ? py::object(py::float_(*p.unloadedSmallestEigenvalue)) : py::none();
     q["critical_points"] = py::cast(RowMat(p.criticalPoints));
     poses.append(q);
   }

@@ -57,6 +57,11 @@ std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const
   return buf;
 }
 
+bool PoseResult::atCriticalPoint() const {
+  return stable.value_or(false) && smallestEigenvalue && unloadedSmallestEigenvalue &&
+         *unloadedSmallestEigenvalue > 0 && *smallestEigenvalue <= kCriticalStiffnessRatio * *unloadedSmallestEigenvalue;
+}
+
 SimulationResult simulateAll(const SceneModel& model, const Design& design, const NewtonOptions& options,
                              const PoseProgress& progress) {
   SimulationResult out;
@@ -89,6 +94,8 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
       if (st.ok) {
         r.stable = st.negative == 0;
         r.smallestEigenvalue = st.smallestEigenvalue;
+        const Stability unloaded = stability(sys, design, sys.restState(design));
+        if (unloaded.ok) r.unloadedSmallestEigenvalue = unloaded.smallestEigenvalue;
       }
     }
     if (model.effects().planar && r.report.converged())

@@ -33,6 +33,15 @@ struct PoseResult {
   // unsupported load).
   std::optional<bool> stable;
   std::optional<double> smallestEigenvalue;
+  // The same eigenvalue of the unloaded structure (the design's rest state
+  // under the pose's supports), N/m: the scale that smallestEigenvalue is
+  // judged against (atCriticalPoint).
+  std::optional<double> unloadedSmallestEigenvalue;
+  // A stable state with at most kCriticalStiffnessRatio of the unloaded
+  // structure's smallest stiffness: at (or next to) a limit or bifurcation
+  // point, where a little more load or a small imperfection of the printed
+  // object makes it snap or buckle to another equilibrium.
+  bool atCriticalPoint() const;
 };
 
 struct SimulationResult {

@@ -470,7 +470,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
         if (rj.converged()) {
           const Stability there = stability(system, design, PoseState{uCur, chartsCur, lam, state.internal});
           const bool soft = there.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
-                            there.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue;
+                            there.smallestEigenvalue <= kCriticalStiffnessRatio * unloaded.smallestEigenvalue;
           // Negative curvature met beyond lam marks a critical point unless
           // the state beyond is where the path was heading: within
           // pathDeviation of the last kept step's displacement scaled to
@@ -554,7 +554,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
             lam == 0.0 ? unloaded : stability(system, design, PoseState{uCur, chartsCur, lam, state.internal});
         total.smallestEigenvalue = here.smallestEigenvalue;
         const bool lost = negativeBeyond || (here.ok && unloaded.ok && unloaded.smallestEigenvalue > 0 &&
-                                             here.smallestEigenvalue <= 1e-2 * unloaded.smallestEigenvalue);
+                                             here.smallestEigenvalue <= kCriticalStiffnessRatio * unloaded.smallestEigenvalue);
         r.outcome = Outcome::Stalled;
         if (unloaded.zeroMode()) {
           os << "the unloaded structure has a mode without stiffness that double precision resolves (smallest "

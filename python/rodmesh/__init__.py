@@ -112,7 +112,10 @@ class PoseResult:
     """One pose of a result: positions (V x 3), twist (E, or None without twist),
     target (V x 3 or None), residual_norm (N), rms_error (m or None), status,
     iterations, time_s; stable (the archived state is a stable equilibrium, or
-    None when unknown), smallest_eigenvalue (N/m), critical_points (K x 3: load
+    None when unknown), smallest_eigenvalue (N/m), unloaded_smallest_eigenvalue
+    (N/m, the same of the design's rest state under the pose's supports; a
+    stable state with at most 1e-2 of it is at a critical point),
+    critical_points (K x 3: load
     factor, smallest eigenvalue N/m, jump m, per critical point the loading path
     passed), out_of_plane_stable (planar solves); optimize only:
     initial_positions (the equilibrium under the initial design) and

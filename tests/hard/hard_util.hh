@@ -23,6 +23,7 @@ namespace rodmesh::hardtest {
 struct RunResult {
   int status = -1;  // exit status of rodmesh
   std::string err;  // its stderr
+  std::string out;  // its stdout
 };
 
 class HardCase : public ::testing::Test {
@@ -42,11 +43,12 @@ class HardCase : public ::testing::Test {
     const char* other = std::getenv("RODMESH_HARD_EXE");
     const std::string exe = other && *other ? other : RODMESH_EXE;
     const std::string cmd = "cd " + clitest::shellQuote(dir_) + " && " + clitest::shellQuote(exe) + " " + args +
-                            " >/dev/null 2>" + clitest::shellQuote(path("stderr.txt"));
+                            " >" + clitest::shellQuote(path("stdout.txt")) + " 2>" + clitest::shellQuote(path("stderr.txt"));
     const int rc = std::system(cmd.c_str());
     RunResult r;
     r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
     r.err = clitest::readText(path("stderr.txt"));
+    r.out = clitest::readText(path("stdout.txt"));
     return r;
   }
 

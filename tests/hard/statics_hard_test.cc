@@ -426,6 +426,34 @@ TEST_F(HardStatics, PerfectColumnJustBelowBucklingStaysStraightAndStable) {
   ASSERT_TRUE(p.smallestEigenvalue.has_value());
   EXPECT_GT(*p.smallestEigenvalue, 0.0);
   EXPECT_EQ(p.criticalPoints.rows(), 0);
+  // The axial load softens the bending mode by the factor 1 - P/Pcr (5% of
+  // the unloaded stiffness left): soft, but not at the critical point.
+  ASSERT_TRUE(p.unloadedSmallestEigenvalue.has_value());
+  const double ratio = *p.smallestEigenvalue / *p.unloadedSmallestEigenvalue;
+  EXPECT_NEAR(ratio, 0.05, 0.01);
+  EXPECT_GT(ratio, kCriticalStiffnessRatio);
+  EXPECT_EQ(c.err.find("critical point"), std::string::npos) << c.err;
+}
+
+// At 0.999 of it the straight column is still stable, with a thousandth of
+// its unloaded stiffness: at the critical point (a lateral imperfection of
+// the printed column would buckle it). simulate says so and the archive
+// holds both eigenvalues; inspect says so too.
+TEST_F(HardStatics, PerfectColumnAtItsBucklingLoadIsReportedAtACriticalPoint) {
+  const ColumnRun c = loadedColumn(*this, 0.999 * columnBucklingLoad(), 0.0);
+  ASSERT_EQ(c.status, 0) << c.err;
+  const ArchivePose& p = onlyPose(c.archive);
+  EXPECT_LT(std::hypot(c.tip.x(), c.tip.y()), 1e-9);
+  EXPECT_EQ(p.stable, 1);
+  ASSERT_TRUE(p.smallestEigenvalue.has_value());
+  ASSERT_TRUE(p.unloadedSmallestEigenvalue.has_value());
+  const double ratio = *p.smallestEigenvalue / *p.unloadedSmallestEigenvalue;
+  EXPECT_GT(ratio, 0.0);
+  EXPECT_NEAR(ratio, 1e-3, 3e-4);
+  EXPECT_NE(c.err.find("is at a critical point"), std::string::npos) << c.err;
+  const RunResult in = run("inspect out.h5");
+  ASSERT_EQ(in.status, 0) << in.err;
+  EXPECT_NE(in.out.find("at a critical point"), std::string::npos) << in.out;
 }
 
 // Just above it the straight column becomes a saddle on the way: the path

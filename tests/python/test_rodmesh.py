@@ -129,6 +129,9 @@ def test_simulate_matches_the_cli_archive(tmp_path):
     assert p.stable is True
     assert p.smallest_eigenvalue > 0
     assert p.critical_points.shape == (0, 3)
+    # The tip load hardly softens the cantilever: far from a critical point.
+    assert p.unloaded_smallest_eigenvalue > 0
+    assert p.smallest_eigenvalue > 1e-2 * p.unloaded_smallest_eigenvalue
     # Result.save writes what the CLI writes: the CLI reads it back.
     saved = tmp_path / "py.h5"
     r.save(saved)
