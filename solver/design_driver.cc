@@ -112,6 +112,14 @@ class DesignDriver {
   // Polishes the phase's candidates and keeps the better ones; returns the
   // index of the candidate kept last (-1: none).
   int keepCandidates(const PhaseTask& task, const PhaseResult& pr, int iterations);
+  // For a phase solver whose iterates are not equilibria (SAND): empty, or
+  // why the phase's optimum is out of reach. An equality constraint holds
+  // at unstable equilibria too, so such a phase can end at a design whose
+  // equilibria (its own states) do better than the best design by more
+  // than round-off while its polish (Newton from those states, or the
+  // loading path from rest) lands elsewhere and the candidate was not kept;
+  // said when a pose's stiffness at those states has a negative eigenvalue.
+  std::string unreachedOptimum(const PhaseTask& task, const PhaseResult& pr, int kept) const;
   // Re-solves the best design along the loading path from rest. True when
   // that equilibrium is not the one the optimizer holds (farther than
   // designedEquilibriumTolerance): `path` then holds the loading path's
@@ -232,6 +240,31 @@ int DesignDriver::keepCandidates(const PhaseTask& task, const PhaseResult& pr, i
                    "the design kept at the end of " + task.label + " (iteration " + std::to_string(iterations) + ")");
   }
   return kept;
+}
+
+std::string DesignDriver::unreachedOptimum(const PhaseTask& task, const PhaseResult& pr, int kept) const {
+  // Relative margin above the polish's round-off: a kept candidate's own
+  // and polished objectives differ in their last digits only.
+  constexpr double kMargin = 1e-3;
+  for (std::size_t c = 0; c < pr.candidates.size(); ++c) {
+    const PhaseCandidate& cand = pr.candidates[c];
+    if (static_cast<int>(c) == kept || static_cast<int>(cand.states.size()) != model_.numPoses()) continue;
+    const Design d = space_.toDesign(cand.controls);
+    double f = 0.0;
+    const double rms = objective_.rms(objectiveOfStates(model_, objective_, d, cand.states, f));
+    if (!(f < (1.0 - kMargin) * res_.objective)) continue;
+    // Only an optimum shown unstable: a polish can also fail for want of
+    // Newton iterations, which says nothing about the design.
+    for (int k = 0; k < model_.numPoses(); ++k) {
+      const Stability st = stability(model_.pose(k), d, cand.states[k]);
+      if (st.ok && st.negative > 0)
+        return "the optimum of " + task.label + " (RMS " + millimetres(rms) +
+               " on its own equilibria) is no stable equilibrium of its design: pose '" + scene_.poses[k].name +
+               "' is an unstable equilibrium there (" + std::to_string(st.negative) + " negative stiffness eigenvalue" +
+               (st.negative > 1 ? "s" : "") + ")";
+    }
+  }
+  return "";
 }
 
 bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note,
@@ -517,6 +550,21 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     res_.evaluationSeconds += pr.evaluationSeconds;
     const int kept = keepCandidates(task, pr, iterations);
     solver.phaseEnded(kept);
+
+    // A phase that ended at an optimum no stable equilibrium realizes is run
+    // again like a diverged one (by a method whose iterates are stable
+    // equilibria); it did not converge.
+    const bool phaseStopped = pr.end == PhaseEnd::Converged || pr.end == PhaseEnd::Stalled ||
+                              pr.end == PhaseEnd::PhaseCap || pr.end == PhaseEnd::TargetsMet;
+    if (phaseStopped && attempt < 1 && !solver.iteratesAreEquilibria() && !interrupted() && !timeUp()) {
+      if (const std::string why = unreachedOptimum(task, pr, kept); !why.empty()) {
+        ++attempt;
+        retryDiverged = true;
+        notes.push_back(why + "; the phase was " + solver.divergedRetry());
+        --ph;
+        continue;
+      }
+    }
 
     if (pr.end == PhaseEnd::Diverged) {
       // Run the phase again from the best design so far; the phase solver

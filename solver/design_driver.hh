@@ -37,7 +37,8 @@ struct PhaseTask {
   int iterationBase = 0;       // run iterations before this phase
   int remainingIterations = 0; // of the run's --max-iter
   int attempt = 0;             // 0, or 1 for the retry of a phase (diverged, or ended off the loading path)
-  bool diverged = false;       // the retry of a phase whose iterates left equilibrium far behind
+  bool diverged = false;       // the retry of a phase whose iterates left equilibrium far behind, or that ended
+                               // at an optimum no stable equilibrium realizes (DesignDriver::unreachedOptimum)
   // The start: the best design so far, its equilibria (polished by Newton)
   // and objective.
   ControlValues controls;

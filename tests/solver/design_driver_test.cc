@@ -12,8 +12,10 @@
 #include <memory>
 
 #include "model/design_space.hh"
+#include "model/stiffness.hh"
 #include "solver/design_fallback.hh"
 #include "tests/testutil/design_problems.hh"
+#include "tests/testutil/scenes.hh"
 
 namespace rodmesh {
 namespace {
@@ -23,7 +25,8 @@ class ScriptedPhases : public PhaseSolver {
  public:
   std::function<PhaseResult(const PhaseTask&, PhaseContext&)> script;
   std::vector<PhaseTask> tasks;
-  bool iteratesAreEquilibria() const override { return true; }
+  bool equilibria = true;  // false: like SAND, whose iterates are not equilibria
+  bool iteratesAreEquilibria() const override { return equilibria; }
   PhaseResult solvePhase(const PhaseTask& task, PhaseContext& context) override {
     tasks.push_back(task);
     return script(task, context);
@@ -129,6 +132,88 @@ TEST(DesignDriver, RetriesADivergedPhaseOnceThenStops) {
   EXPECT_EQ(r.outcome, Outcome::Stalled);
   EXPECT_NE(r.message.find("left equilibrium"), std::string::npos) << r.message;
   EXPECT_TRUE(sameControls(r.controls, c.space.initialControls(c.scene)));
+}
+
+// A clamped column (1 m, r = 1 cm, 20 edges) under twice its buckling load,
+// radii free, targets 1 mm beside its straight (compressed) shape. The
+// straight shape is an equilibrium, but an unstable one (one negative
+// stiffness eigenvalue per bending plane); loaded from rest the column
+// buckles, far from the targets.
+struct CompressedColumn {
+  static Scene make() {
+    Scene s = testutil::cantilever(20, 1.0, 0.01, 0.01, Vec3(0, 0, 1));
+    s.material = Material{1e8, 0.4, 500.0};
+    s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Twist};
+    const double EI = stiffness::bendingOut(s.material.youngModulus, 0.01, 0.01);
+    s.poses[0].forces.push_back({20, Vec3(-2.0 * stiffness::kPi * stiffness::kPi * EI / 4.0, 0, 0)});
+    for (const Vec3& x : s.vertices) s.poses[0].target.push_back(x + Vec3(0, 0, 1e-3));
+    s.design.present = s.design.radii = true;
+    s.design.hasRadiusBounds = true;
+    s.design.radiusMin = 0.005;
+    s.design.radiusMax = 0.02;
+    return s;
+  }
+  Scene s = make();
+  SceneModel model{s};
+  DesignSpace space{s, model.effects()};
+  // A design with radii scaled by `scale` and its straight equilibrium:
+  // every edge shortened by P / (E A).
+  std::pair<ControlValues, PoseState> straight(double scale) const {
+    ControlValues c = space.initialControls(s);
+    c.radii *= scale;
+    const Design d = space.toDesign(c);
+    const PoseSystem& sys = model.pose(0);
+    const double r = 0.01 * scale, P = -s.poses[0].forces[0].force.x();
+    const double strain = P / stiffness::stretching(s.material.youngModulus, r, r);
+    std::vector<Vec3> x;
+    for (const Vec3& v : s.vertices) x.push_back(v * (1.0 - strain));
+    PoseState st = sys.restState(d);
+    st.u = sys.dofsFrom(x, Eigen::VectorXd::Zero(static_cast<Eigen::Index>(s.vertices.size()) - 1));
+    st.loadFactor = 1.0;
+    return {c, st};
+  }
+};
+
+// A phase solver whose iterates are not equilibria (SAND) can end at an
+// unstable equilibrium: the equality constraint holds there too. Its polish
+// lands on the buckled branch and the candidate is not kept; the driver runs
+// the phase again the way it runs a diverged one, and says why. A phase
+// solver whose iterates are equilibria has no such retry.
+TEST(DesignDriver, APhaseEndingAtAnUnstableEquilibriumIsRunAgain) {
+  const CompressedColumn col;
+  const auto [c, straight] = col.straight(0.99);
+  {
+    Eigen::VectorXd g;
+    col.model.pose(0).evaluate(straight, col.space.toDesign(c), &g, nullptr);
+    ASSERT_LT(col.model.pose(0).forceResidual(g).norm(), 1e-9) << "the straight column is an equilibrium";
+    const Stability st = stability(col.model.pose(0), col.space.toDesign(c), straight);
+    ASSERT_TRUE(st.ok);
+    ASSERT_EQ(st.negative, 2) << "an unstable one";
+  }
+  for (const bool equilibria : {false, true}) {
+    ScriptedPhases phases;
+    phases.equilibria = equilibria;
+    phases.script = [&, c = c, straight = straight](const PhaseTask& task, PhaseContext&) {
+      PhaseResult r;
+      r.iterations = 5;
+      if (task.attempt == 0) r.candidates.push_back({c, {straight}});
+      return r;
+    };
+    const DesignOptimizerResult r = runDesign(col.model, col.space, driverOptions(), phases);
+    if (equilibria) {
+      EXPECT_EQ(phases.tasks.size(), 1u) << r.message;
+      EXPECT_EQ(r.message.find("no stable equilibrium"), std::string::npos) << r.message;
+      continue;
+    }
+    ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
+    EXPECT_TRUE(phases.tasks[1].diverged) << "run again by the method for diverged phases";
+    EXPECT_EQ(phases.tasks[1].index, 0) << "the same phase";
+    EXPECT_NE(r.message.find("is no stable equilibrium of its design: pose 'pose0' is an unstable equilibrium "
+                             "there (2 negative stiffness eigenvalues)"),
+              std::string::npos)
+        << r.message;
+    EXPECT_FALSE(sameControls(r.controls, c)) << "the unstable design is not the result";
+  }
 }
 
 TEST(DesignDriver, AFailedPhaseIsAFailedRunOnlyWithoutABetterDesign) {
