@@ -141,6 +141,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // A design whose pose sits at a critical point reaches its equilibrium
   // only as built and loaded exactly: say so (optimizers run to such
   // points when a target lies beyond the branch's end).
+  addUnloadedStiffness(*archiveModel, chosen.design, chosen.simulation);
   for (const PoseResult& p : chosen.simulation.poses)
     if (p.atCriticalPoint()) chosen.note += (chosen.note.empty() ? "" : "; ") + criticalPointNote(p);
   if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";

@@ -62,8 +62,21 @@ bool PoseResult::atCriticalPoint() const {
          *unloadedSmallestEigenvalue > 0 && *smallestEigenvalue <= kCriticalStiffnessRatio * *unloadedSmallestEigenvalue;
 }
 
+namespace {
+void setUnloadedStiffness(const PoseSystem& sys, const Design& design, PoseResult& r) {
+  if (!r.smallestEigenvalue || r.unloadedSmallestEigenvalue) return;
+  const Stability unloaded = stability(sys, design, sys.restState(design));
+  if (unloaded.ok) r.unloadedSmallestEigenvalue = unloaded.smallestEigenvalue;
+}
+}  // namespace
+
+void addUnloadedStiffness(const SceneModel& model, const Design& design, SimulationResult& sim) {
+  for (int p = 0; p < model.numPoses() && p < static_cast<int>(sim.poses.size()); ++p)
+    setUnloadedStiffness(model.pose(p), design, sim.poses[p]);
+}
+
 SimulationResult simulateAll(const SceneModel& model, const Design& design, const NewtonOptions& options,
-                             const PoseProgress& progress) {
+                             const PoseProgress& progress, bool unloadedStiffness) {
   SimulationResult out;
   out.dofsPerPose = model.numPoses() > 0 ? model.pose(0).numDofs() : 0;
   for (int p = 0; p < model.numPoses(); ++p) {
@@ -94,8 +107,7 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
       if (st.ok) {
         r.stable = st.negative == 0;
         r.smallestEigenvalue = st.smallestEigenvalue;
-        const Stability unloaded = stability(sys, design, sys.restState(design));
-        if (unloaded.ok) r.unloadedSmallestEigenvalue = unloaded.smallestEigenvalue;
+        if (unloadedStiffness) setUnloadedStiffness(sys, design, r);
       }
     }
     if (model.effects().planar && r.report.converged())

@@ -53,8 +53,15 @@ struct SimulationResult {
 using PoseProgress = std::function<void(int pose, const PoseResult&)>;
 
 // Solves every pose from its rest configuration under the given design.
+// `unloadedStiffness`: also the unloaded structure's smallest eigenvalue per
+// pose (PoseResult::unloadedSmallestEigenvalue, one more factorization per
+// pose), for results that are reported; the optimizers' many checks skip it.
 SimulationResult simulateAll(const SceneModel& model, const Design& design, const NewtonOptions& options,
-                             const PoseProgress& progress = {});
+                             const PoseProgress& progress = {}, bool unloadedStiffness = false);
+
+// Sets PoseResult::unloadedSmallestEigenvalue of every pose of `sim` (solved
+// under `design`) that has a stability judgement and lacks it.
+void addUnloadedStiffness(const SceneModel& model, const Design& design, SimulationResult& sim);
 
 // Empty if the pose's loads can be in equilibrium; otherwise why not (no
 // held vertex and a non-zero net force).
