@@ -199,9 +199,10 @@ Stability stability(const PoseSystem& system, const Design& design, const PoseSt
 // fraction of the unloaded structure's (the rest state under the same
 // supports) has lost nearly all its stiffness along one mode: it is at, or
 // next to, a limit or bifurcation point. Near a limit point the eigenvalue
-// falls like the square root of the load's distance to it, so the load
-// margin left is of the order of the square of that ratio. The loading path
-// uses the same ratio to tell a critical point from a merely soft state.
+// falls like the square root of the load's distance to it (a load margin of
+// the order of the ratio squared), before a bifurcation linearly (of the
+// order of the ratio). The loading path uses the same ratio to tell a
+// critical point from a merely soft state.
 constexpr double kCriticalStiffnessRatio = 1e-2;
 
 // Round-off floor of the force residual at u (rule 2 above), in newtons,
