@@ -9,6 +9,7 @@
 #include <map>
 #include <string>
 #include <unistd.h>
+#include <vector>
 
 namespace rodmesh::meshing::testing {
 
@@ -70,10 +71,26 @@ inline TriSurface dome(double r, int rings, int sectors) {
   return s;
 }
 
-// A unique temporary path with the given suffix (file not created).
+// Every path tempPath handed out, removed when the test process exits
+// (whether or not a test created the file, or removed it itself).
+struct TempPaths {
+  std::vector<std::string> paths;
+  ~TempPaths() {
+    for (const std::string& p : paths) std::remove(p.c_str());
+  }
+};
+inline TempPaths& tempPaths() {
+  static TempPaths t;
+  return t;
+}
+
+// A unique temporary path with the given suffix (file not created; removed
+// at the process's exit).
 inline std::string tempPath(const std::string& suffix) {
   static int counter = 0;
-  return "/tmp/rodmesh_meshing_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + suffix;
+  std::string p = "/tmp/rodmesh_meshing_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + suffix;
+  tempPaths().paths.push_back(p);
+  return p;
 }
 
 inline void writeText(const std::string& path, const std::string& text) {
