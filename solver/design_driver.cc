@@ -74,6 +74,12 @@ class DesignDriver {
     return opt_.timeLimit > 0 ? std::max(0.0, opt_.timeLimit - since(t0_)) : std::numeric_limits<double>::infinity();
   }
   const DesignOptimizerOptions& options() const { return opt_; }
+  // Lets the monitor finish the checks offered so far, so that the design
+  // it holds depends only on the optimizer's iterates, not on how far its
+  // thread got; a run cut short by its limits does not wait.
+  void waitForMonitor() {
+    monitor_->drain([this] { return interrupted() || timeUp(); });
+  }
   double initialObjective() const { return res_.initialObjective; }
 
   bool iterate(const PhaseTask& task, DesignIterate& it, const ControlValues* design, bool equilibrium,
@@ -81,7 +87,7 @@ class DesignDriver {
     const std::string label = "the design of " + task.label + ", iteration " + std::to_string(it.iteration);
     if (design) {
       if (equilibrium) fallbacks_.add(*design, it.objective, it.rms, label);
-      if (monitor_) monitor_->offer(*design, it.iteration, label);
+      if (monitor_ && confirmsIteration(it.iteration)) monitor_->offer(*design, it.iteration, label);
     }
     if (monitor_) monitor_->bestSummary(it.confirmedRms, it.confirmedIteration);
     res_.history.push_back(it);
@@ -432,6 +438,7 @@ std::string DesignDriver::adoptBestOnPath() {
   // prescribed rotations), and a design the optimizer scored worse on its
   // own branch is rarely better from rest.
   std::vector<std::pair<ControlValues, std::string>> tries;
+  if (monitor_) waitForMonitor();
   if (monitor_)
     if (const std::optional<ConfirmedDesign> c = monitor_->best(); c && c->objective < best)
       tries.emplace_back(c->controls, c->label + " (confirmed from rest during the run)");
@@ -673,6 +680,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   }
 
   if (monitor_) {
+    waitForMonitor();
     monitor_->stop();
     if (adoptConfirmed(*monitor_, stop, res_, optimizer_, fallbacks_))
       message += "; the best design confirmed during the run (iteration " + std::to_string(monitor_->best()->iteration) +

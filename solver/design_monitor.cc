@@ -1,5 +1,6 @@
 #include "solver/design_monitor.hh"
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
 
@@ -17,6 +18,14 @@ double simulationObjective(const Scene& scene, const SimulationResult& sim, doub
   }
   if (sumSquared) *sumSquared = ss;
   return f;
+}
+
+bool confirmsIteration(int iteration) {
+  if (iteration < 1) return false;
+  if (iteration <= 10) return true;
+  int n = 10;
+  while (n < iteration) n = std::max(n + 1, static_cast<int>(std::floor(1.2 * n)));
+  return n == iteration;
 }
 
 DesignMonitor::DesignMonitor(const Scene& scene, const DesignSpace& space, const NewtonOptions& newton,
@@ -39,21 +48,30 @@ void DesignMonitor::offer(const ControlValues& controls, int iteration, const st
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return;
-    pending_ = Offer{controls, iteration, label};
+    queue_.push_back(Offer{controls, iteration, label});
   }
   wake_.notify_one();
 }
 
 void DesignMonitor::drain() {
   std::unique_lock<std::mutex> lock(mutex_);
-  idle_.wait(lock, [this] { return stopping_ || (!pending_ && !busy_); });
+  idle_.wait(lock, [this] { return stopping_ || (queue_.empty() && !busy_); });
+}
+
+bool DesignMonitor::drain(const std::function<bool()>& abandon) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (;;) {
+    if (stopping_ || (queue_.empty() && !busy_)) return !stopping_;
+    if (abandon && abandon()) return false;
+    idle_.wait_for(lock, std::chrono::milliseconds(20));
+  }
 }
 
 void DesignMonitor::stop() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stopping_ = true;
-    pending_.reset();
+    queue_.clear();
   }
   cancel_.store(true);
   wake_.notify_all();
@@ -112,10 +130,10 @@ void DesignMonitor::run() {
     Offer offer;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [this] { return stopping_ || pending_.has_value(); });
+      wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
       if (stopping_) break;
-      offer = std::move(*pending_);
-      pending_.reset();
+      offer = std::move(queue_.front());
+      queue_.pop_front();
       busy_ = true;
     }
     try {

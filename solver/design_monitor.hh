@@ -10,8 +10,12 @@
 //      (cheap, and it rejects designs worse than the best so far), then
 //   2. converges from the rest state, as `rodmesh simulate` solves it,
 // with a lower objective than every design confirmed before (the first must
-// beat the initial design). Offers arriving while a design is being checked
-// replace each other: the newest is checked next, older ones are dropped.
+// beat the initial design). Every offer is checked, in the order made, so
+// that what the monitor confirms does not depend on how far its thread got:
+// the driver offers the iterations `confirmsIteration` names (all of the
+// first ten, then about every fifth part more), which keeps the queue short,
+// and waits for the queue (`drain`) before it uses the best design, unless
+// the run is being cut short.
 #pragma once
 
 #include "model/design_space.hh"
@@ -21,6 +25,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <deque>
 #include <functional>
 #include <limits>
 #include <mutex>
@@ -49,6 +54,12 @@ struct ConfirmedDesign {
 // squared distance of a simulation's positions.
 double simulationObjective(const Scene& scene, const SimulationResult& sim, double* sumSquared = nullptr);
 
+// Whether the design of optimizer iteration `iteration` (counted over the
+// whole run, from 1) is offered to the monitor: iterations 1 to 10, then
+// n_{j+1} = floor(1.2 n_j) (12, 14, 16, 19, 22, ...): about 40 checks in
+// 2000 iterations, fewer where a run is long and slow to change.
+bool confirmsIteration(int iteration);
+
 class DesignMonitor {
  public:
   using Clock = std::chrono::steady_clock;
@@ -65,11 +76,13 @@ class DesignMonitor {
   DesignMonitor(const DesignMonitor&) = delete;
   DesignMonitor& operator=(const DesignMonitor&) = delete;
 
-  // Offers the optimizer's current design; returns at once.
+  // Queues the optimizer's current design for a check; returns at once.
   void offer(const ControlValues& controls, int iteration, const std::string& label);
-  // Waits until every offer made so far has been checked (tests, and the end
-  // of a run that wants its last design confirmed).
+  // Waits until every offer made so far has been checked.
   void drain();
+  // The same, giving up (false) as soon as `abandon` returns true (polled
+  // every 20 ms): a run cut short by its limits does not wait.
+  bool drain(const std::function<bool()>& abandon);
   // Stops the thread, abandoning a check under way (Newton is cancelled).
   void stop();
 
@@ -97,7 +110,7 @@ class DesignMonitor {
 
   mutable std::mutex mutex_;
   std::condition_variable wake_, idle_;
-  std::optional<Offer> pending_;
+  std::deque<Offer> queue_;
   bool busy_ = false, stopping_ = false;
   std::atomic<bool> cancel_{false};
   std::optional<ConfirmedDesign> best_;

@@ -12,6 +12,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
+#include <string>
+#include <vector>
 
 namespace rodmesh {
 namespace {
@@ -215,6 +218,61 @@ TEST_F(DesignMonitorTest, AWarmStartThatNoLongerConvergesIsReplacedByTheEquilibr
   EXPECT_EQ(best->iteration, 2);
   for (const PoseState& s : best->states) EXPECT_TRUE(s.u.allFinite());
   monitor.stop();
+}
+
+// Every offer is checked, in the order made, however fast they come: the
+// design a run ends with must not depend on how far the monitor's thread got.
+TEST_F(DesignMonitorTest, EveryOfferIsCheckedInTheOrderMade) {
+  std::vector<int> reported;
+  std::mutex m;
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+                        DesignMonitor::Clock::now(), [&](const ConfirmedDesign& c) {
+                          std::lock_guard<std::mutex> lock(m);
+                          if (!c.initial) reported.push_back(c.iteration);
+                        });
+  // Each better than the one before; offered without waiting.
+  const double ts[] = {0.2, 0.4, 0.6, 0.8, 1.0};
+  for (int i = 0; i < 5; ++i) monitor.offer(between(ts[i]), i + 1, "t = " + std::to_string(ts[i]));
+  monitor.drain();
+  EXPECT_EQ(monitor.checked(), 5);
+  EXPECT_EQ(monitor.confirmed(), 5);
+  ASSERT_TRUE(monitor.best().has_value());
+  EXPECT_EQ(monitor.best()->iteration, 5);
+  monitor.stop();
+  std::lock_guard<std::mutex> lock(m);
+  EXPECT_EQ(reported, (std::vector<int>{1, 2, 3, 4, 5}));
+}
+
+TEST_F(DesignMonitorTest, ADrainGivesUpWhenAskedTo) {
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+                        DesignMonitor::Clock::now());
+  for (int i = 1; i <= 20; ++i) monitor.offer(between(0.05 * i), i, "offer " + std::to_string(i));
+  EXPECT_FALSE(monitor.drain([] { return true; })) << "asked to give up at once, with checks queued";
+  EXPECT_LT(monitor.checked(), 20);
+  EXPECT_TRUE(monitor.drain([] { return false; }));
+  EXPECT_EQ(monitor.checked(), 20);
+  monitor.stop();
+  EXPECT_FALSE(monitor.drain([] { return false; })) << "a stopped monitor checks nothing more";
+}
+
+TEST(ConfirmsIteration, TheFirstTenThenAboutEveryFifthPartMore) {
+  for (int i = 1; i <= 10; ++i) EXPECT_TRUE(confirmsIteration(i)) << i;
+  EXPECT_FALSE(confirmsIteration(0));
+  EXPECT_FALSE(confirmsIteration(-3));
+  std::vector<int> next;
+  for (int i = 11; next.size() < 6; ++i)
+    if (confirmsIteration(i)) next.push_back(i);
+  EXPECT_EQ(next, (std::vector<int>{12, 14, 16, 19, 22, 26}));
+  int count = 0, last = 0;
+  for (int i = 1; i <= 2000; ++i)
+    if (confirmsIteration(i)) {
+      ++count;
+      if (i > 10) EXPECT_LE(i, static_cast<int>(1.2 * last) + 1) << "gap after " << last;
+      last = i;
+    }
+  EXPECT_GE(count, 35);
+  EXPECT_LE(count, 45);
+  EXPECT_GT(last, 1500) << "late iterations are still offered";
 }
 
 TEST_F(DesignMonitorTest, NonFiniteDesignsAreRejectedAndStopReturnsPromptly) {
