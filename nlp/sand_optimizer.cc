@@ -307,6 +307,8 @@ class SandPhaseSolver : public PhaseSolver {
   }
 
   bool iteratesAreEquilibria() const override { return false; }
+  // By the Newton-CG retry's solver (Ipopt's iterates are no equilibria).
+  bool solvesOnPath() const override { return retry_ != nullptr; }
   std::string divergedRetry() const override {
     return retry_ ? "run again by the reduced Newton-CG method (every iterate an equilibrium)"
                   : "run again by Ipopt held near equilibrium";
@@ -421,7 +423,7 @@ std::string SandPhaseSolver::prepare(const std::vector<PoseState>& states, doubl
 }
 
 PhaseResult SandPhaseSolver::solvePhase(const PhaseTask& task, PhaseContext& ctx) {
-  if (task.diverged && retry_) {
+  if ((task.diverged || task.onPath) && retry_) {
     finalCandidate_ = -1;  // no Ipopt multipliers for the next phase
     return retry_->solvePhase(task, ctx);
   }

@@ -181,6 +181,19 @@ class DesignDriver {
     std::vector<PoseState> states;
     std::string label;
   };
+  // The best design whose equilibria were found on its loading path: a
+  // phase end checked on its path, a seeded design, the initial design, or
+  // the monitor's best confirmed design (waited for, see waitForMonitor).
+  OnPathDesign bestKnownOnPath() {
+    OnPathDesign best = bestOnPath_;
+    if (monitor_) waitForMonitor();
+    // (DesignMonitor::best returns a copy: keep it while it is read.)
+    const std::optional<ConfirmedDesign> confirmed = monitor_ ? monitor_->best() : std::nullopt;
+    if (confirmed && confirmed->objective < best.objective)
+      best = {confirmed->controls, confirmed->design,         confirmed->objective, confirmed->rms,
+              confirmed->states,   confirmed->label + " (confirmed from rest during the run)"};
+    return best;
+  }
   OnPathDesign bestOnPath_;
   OnPathDesign lastPath_;        // the design offLoadingPath solved last, with its loading path
   bool wentOnFromPath_ = false;  // continueFromPath was called
@@ -511,6 +524,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   int attempt = 0;        // retries of the current phase (divergence, off the loading path)
   bool retryDiverged = false;  // the retry is that of a diverged phase
   bool seededRetry = false;    // the last phase was run again from a seeded rest shape
+  bool onPathRetry = false;    // the last phase was run again on the loading path (PhaseTask::onPath)
   int phaseIndex = 0;
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignStep& step = steps[ph];
@@ -544,6 +558,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     task.remainingIterations = remaining;
     task.attempt = attempt;
     task.diverged = attempt > 0 && retryDiverged;
+    task.onPath = onPathRetry;
     task.controls = res_.controls;
     task.states = states_;
     task.objective = res_.objective;
@@ -639,6 +654,19 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
           --ph;
           continue;
         }
+      } else if (!onPathRetry && solver.solvesOnPath() && !interrupted() && !timeUp()) {
+        // The last resort: the last phase once more from the design that
+        // does best as loaded from rest, every equilibrium solved from rest
+        // along its loading path, so that every design it accepts is on its
+        // path (and the objective is the loaded object's).
+        const std::string adopted = adoptBestOnPath();
+        notes.push_back("the last phase ended off the loading path again (" + note + "); it was run once more from " +
+                        adopted + " (RMS " + millimetres(res_.rms) +
+                        " as loaded from rest), every equilibrium solved from rest along its loading path");
+        onPathRetry = true;
+        ++attempt;
+        --ph;
+        continue;
       } else {
         stop = Outcome::Stalled;
         const std::string adopted = adoptBestOnPath();
@@ -650,6 +678,25 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     if ((pr.end == PhaseEnd::TargetsMet && !offPath) || res_.objective <= kTargetsMetRatio * res_.initialObjective) {
       message = "every target met to round-off";
       break;
+    }
+    // A run that went on from a loading path's equilibria and whose last
+    // phase ended (on its path) worse, as loaded from rest, than a design it
+    // held before: the last phase once more from that design, on the path
+    // (the last resort above).
+    if (task.lastPhase && !offPath && wentOnFromPath_ && !onPathRetry && solver.solvesOnPath() && !interrupted() &&
+        !timeUp()) {
+      const OnPathDesign best = bestKnownOnPath();
+      if (!sameControls(best.controls, res_.controls) && best.objective < res_.objective) {
+        notes.push_back("the last phase's design as loaded from rest (RMS " + millimetres(res_.rms) +
+                        ") is worse than " + best.label + " (RMS " + millimetres(best.rms) +
+                        "); the last phase was run once more from it, every equilibrium solved from rest along "
+                        "its loading path");
+        adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);
+        onPathRetry = true;
+        ++attempt;
+        --ph;
+        continue;
+      }
     }
     attempt = 0;
     retryDiverged = false;
@@ -691,12 +738,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   // design the run held before: that design is then the result, and the run
   // did not converge (its archived equilibria are not the ones it ended at).
   if (wentOnFromPath_) {
-    OnPathDesign best = bestOnPath_;
-    // (DesignMonitor::best returns a copy: keep it while it is read.)
-    const std::optional<ConfirmedDesign> confirmed = monitor_ ? monitor_->best() : std::nullopt;
-    if (confirmed && confirmed->objective < best.objective)
-      best = {confirmed->controls, confirmed->design,         confirmed->objective, confirmed->rms,
-              confirmed->states,   confirmed->label + " (confirmed from rest during the run)"};
+    const OnPathDesign best = bestKnownOnPath();
     // The last design itself, kept on its path at its phase's end, differs
     // from the result only by the round-off between its two equilibria.
     if (!sameControls(best.controls, res_.controls) && best.objective < res_.objective) {

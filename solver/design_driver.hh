@@ -39,6 +39,8 @@ struct PhaseTask {
   int attempt = 0;             // 0, or 1 for the retry of a phase (diverged, or ended off the loading path)
   bool diverged = false;       // the retry of a phase whose iterates left equilibrium far behind, or that ended
                                // at an optimum no stable equilibrium realizes (DesignDriver::unreachedOptimum)
+  bool onPath = false;         // the last phase run once more with every equilibrium solved from rest along the
+                               // loading path, after it ended off the path twice (PhaseSolver::solvesOnPath)
   // The start: the best design so far, its equilibria (polished by Newton)
   // and objective.
   ControlValues controls;
@@ -130,6 +132,11 @@ class PhaseSolver {
   // How the solver runs the retry of a diverged phase (task.diverged), for
   // the run's message.
   virtual std::string divergedRetry() const { return "run again from the best design so far"; }
+  // Whether the solver can run a phase with every equilibrium solved from
+  // rest along the loading path (task.onPath): its designs are then on their
+  // loading paths by construction, at the price of a loading path per pose
+  // and evaluation.
+  virtual bool solvesOnPath() const { return false; }
 };
 
 // The reduced method's phase solver (BFGS on the reduced objective,

@@ -122,8 +122,10 @@ bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& state
   forEachPose(n, threads_, [&](int p) {
     try {
       const PoseSystem& sys = model_.pose(p);
-      if (static_cast<int>(prediction.size()) == n && prediction[p].size() == states[p].u.size() &&
-          states[p].loadFactor == 1.0) {
+      if (fromRest_) {
+        states[p] = sys.restState(d);
+      } else if (static_cast<int>(prediction.size()) == n && prediction[p].size() == states[p].u.size() &&
+                 states[p].loadFactor == 1.0) {
         // Start from the prediction when it is closer to equilibrium (smaller
         // force residual under the new design) than the warm start.
         Eigen::VectorXd gw, gp;
@@ -136,7 +138,7 @@ bool ReducedObjective::solvePoses(const Design& d, std::vector<PoseState>& state
       }
       const NewtonReport r = solveEquilibrium(sys, d, states[p], newton_);
       ok[p] = r.converged() && states[p].loadFactor == 1.0;
-      restarted[p] = r.loadSteps > 1;
+      restarted[p] = !fromRest_ && r.loadSteps > 1;
     } catch (...) {
       ok[p] = 0;
     }
@@ -557,6 +559,7 @@ class ReducedPhaseSolver : public PhaseSolver {
       : model_(model), space_(space), opt_(opt), objective_(model.scene(), model.effects()) {}
 
   bool iteratesAreEquilibria() const override { return true; }
+  bool solvesOnPath() const override { return true; }
 
   PhaseResult solvePhase(const PhaseTask& task, PhaseContext& ctx) override {
     const DesignPhase& phase = task.step.phase;
@@ -566,6 +569,7 @@ class ReducedPhaseSolver : public PhaseSolver {
     const Eigen::VectorXd s = designVariableScale(space_, phase, scene);
     if (opt_.designDerivatives != DesignDerivatives::Exact) ro.setDesignDerivatives(opt_.designDerivatives, s);
     ro.setStop([&ctx] { return ctx.limitReached(); });
+    ro.setFromRest(task.onPath);
     Eigen::VectorXd lo, hi;
     space_.bounds(phase, lo, hi);
     const Eigen::VectorXd y0 = space_.pack(phase, task.controls).cwiseQuotient(s);
@@ -613,12 +617,14 @@ class NewtonPhaseSolver : public PhaseSolver {
       : model_(model), space_(space), opt_(opt), objective_(model.scene(), model.effects()) {}
 
   bool iteratesAreEquilibria() const override { return true; }
+  bool solvesOnPath() const override { return true; }
 
   PhaseResult solvePhase(const PhaseTask& task, PhaseContext& ctx) override {
     const DesignPhase& phase = task.step.phase;
     PhaseResult out;
     ReducedObjective ro(model_, space_, objective_, phase, task.controls, opt_.newton, opt_.threads, task.states);
     ro.setStop([&ctx] { return ctx.limitReached(); });
+    ro.setFromRest(task.onPath);
     ReducedHessian rh(model_, space_, objective_, phase, opt_.threads);
     const Eigen::VectorXd s = designVariableScale(space_, phase, model_.scene());
     Eigen::VectorXd lo, hi;

@@ -296,6 +296,15 @@ class ReducedObjective {
   // du = -H^-1 dF/dp dp); a pose starts from the warm start plus its change
   // when the force residual there is smaller than at the warm start itself.
   void predict(std::vector<Eigen::VectorXd> du) { prediction_ = std::move(du); }
+  // Every equilibrium solved from the rest state along the loading path, as
+  // `rodmesh simulate` solves it, instead of warm-started (no prediction):
+  // the objective is then that of the loaded object, and every design the
+  // optimizer accepts is on its loading path by construction (the driver's
+  // last resort, PhaseTask::onPath).
+  void setFromRest(bool fromRest) {
+    fromRest_ = fromRest;
+    lastZ_.resize(0);  // the cached equilibria may be another branch's
+  }
   const std::vector<PoseState>& warmStates() const { return warm_; }
   // The equilibria of the last successful evaluation if it was at z, else null.
   const std::vector<PoseState>* statesAt(const Eigen::VectorXd& z) const {
@@ -324,6 +333,7 @@ class ReducedObjective {
   Eigen::VectorXd fdScale_;
   std::function<bool()> stop_;
   std::vector<Eigen::VectorXd> prediction_;
+  bool fromRest_ = false;
   // Cache of the last successful evaluation.
   Eigen::VectorXd lastZ_;
   std::vector<PoseState> lastStates_;

@@ -14,6 +14,8 @@
 #include "model/design_space.hh"
 #include "model/stiffness.hh"
 #include "solver/design_fallback.hh"
+#include "solver/design_monitor.hh"
+#include "solver/design_optimizer.hh"
 #include "tests/testutil/design_problems.hh"
 #include "tests/testutil/scenes.hh"
 
@@ -26,7 +28,9 @@ class ScriptedPhases : public PhaseSolver {
   std::function<PhaseResult(const PhaseTask&, PhaseContext&)> script;
   std::vector<PhaseTask> tasks;
   bool equilibria = true;  // false: like SAND, whose iterates are not equilibria
+  bool onPath = false;     // can run a phase on the loading path (PhaseTask::onPath)
   bool iteratesAreEquilibria() const override { return equilibria; }
+  bool solvesOnPath() const override { return onPath; }
   PhaseResult solvePhase(const PhaseTask& task, PhaseContext& context) override {
     tasks.push_back(task);
     return script(task, context);
@@ -374,6 +378,76 @@ TEST(DesignDriver, APhaseEndOffTheLoadingPathContinuesFromThePath) {
   EXPECT_FALSE(a.offPath) << a.note;
 }
 
+// What the last resort's phases evaluate: with setFromRest, the reduced
+// objective solves every pose from rest along its loading path (the arch
+// stays up: `rodmesh simulate`'s objective), whatever the warm start (here
+// the inverted branch, 1 mm from every target); without, it continues the
+// warm start's branch.
+TEST(DesignDriver, TheReducedObjectiveFromRestIsTheLoadedObjects) {
+  const ArchTargetedInverted arch;
+  const SceneModel& targeted = *arch.targeted;
+  const TargetObjective objective(arch.s, targeted.effects());
+  const DesignPhase phase{true, false, arch.space.numLevels() - 1};
+  ReducedObjective ro(targeted, arch.space, objective, phase, arch.c0, NewtonOptions{}, 1, {arch.inverted});
+  const Eigen::VectorXd z0 = arch.space.pack(phase, arch.c0);
+  double warm = 0.0, fromRest = 0.0;
+  Eigen::VectorXd g;
+  ASSERT_TRUE(ro.evaluate(z0, warm, &g));
+  EXPECT_NEAR(warm, 0.5 * 41 * 1e-6, 1e-3 * warm) << "the inverted branch, every vertex 1 mm off";
+  ro.setFromRest(true);
+  ASSERT_TRUE(ro.evaluate(z0, fromRest, &g));
+  const SimulationResult sim = simulateAll(targeted, arch.d0, NewtonOptions{});
+  ASSERT_TRUE(sim.allConverged);
+  const double simulated = simulationObjective(arch.s, sim);
+  EXPECT_GT(simulated, 100 * warm);
+  EXPECT_NEAR(fromRest, simulated, 1e-9 * simulated);
+  EXPECT_TRUE(g.allFinite());
+  EXPECT_GT(ro.statesAt(z0)->at(0).u.size(), 0);
+  EXPECT_GT(targeted.pose(0).positions(ro.statesAt(z0)->at(0), arch.d0)[20].z(), 0.0) << "the arch up";
+}
+
+// A solver that can run a phase on the loading path gets one more run of the
+// last phase when it ended off the path twice: from the design that does
+// best as loaded from rest, with that design's loading-path equilibria, and
+// the task says so. A design it proposes there is on its path (here: a
+// thinner arch, with its equilibria from rest), and the run is converged.
+TEST(DesignDriver, ALastPhaseOffThePathTwiceIsRunOnThePath) {
+  const ArchTargetedInverted arch;
+  const DesignSpace& space = arch.space;
+  const ControlValues& c0 = arch.c0;
+  const SceneModel& targeted = *arch.targeted;
+  ControlValues thin = c0;
+  thin.radii *= 0.7;
+  const Design dThin = space.toDesign(thin);
+  std::vector<PoseState> fromRest{targeted.pose(0).restState(dThin)};
+  ASSERT_TRUE(solvePosesFrom(targeted, dThin, fromRest, NewtonOptions{}, 1));
+  ScriptedPhases phases;
+  phases.onPath = true;
+  phases.script = [&](const PhaseTask& task, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 5;
+    r.candidates.push_back(task.onPath ? PhaseCandidate{thin, fromRest} : PhaseCandidate{c0, {arch.inverted}});
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
+  ASSERT_EQ(phases.tasks.size(), 3u) << r.message;
+  EXPECT_FALSE(phases.tasks[0].onPath);
+  EXPECT_FALSE(phases.tasks[1].onPath);
+  EXPECT_TRUE(phases.tasks[2].onPath);
+  // It starts from the best design on its path (the initial arch, up), with
+  // the loading path's equilibrium.
+  EXPECT_TRUE(sameControls(phases.tasks[2].controls, c0));
+  EXPECT_GT(targeted.pose(0).positions(phases.tasks[2].states[0], arch.d0)[20].z(), 0.0);
+  EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
+  EXPECT_TRUE(sameControls(r.controls, thin)) << r.message;
+  EXPECT_NE(r.message.find("every equilibrium solved from rest along its loading path"), std::string::npos)
+      << r.message;
+  const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
+  EXPECT_FALSE(a.offPath) << a.note;
+  EXPECT_NEAR(a.rms, r.rms, 1e-9);
+  EXPECT_LT(r.objective, r.initialObjective);
+}
+
 // The same with the rest shape free: the driver displaces the rest shape
 // towards the designed (inverted) branch until the arch, loaded from rest,
 // snaps through onto it (a shallower arch has a lower limit load), and the
@@ -446,6 +520,45 @@ TEST(DesignDriver, ARunWorseOnThePathThanItsStartKeepsTheStart) {
   EXPECT_TRUE(sameControls(r.controls, c0)) << r.message;
   EXPECT_DOUBLE_EQ(r.objective, r.initialObjective);
   EXPECT_NE(r.message.find("worse than the initial design"), std::string::npos) << r.message;
+  const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
+  EXPECT_FALSE(a.offPath) << a.note;
+  EXPECT_NEAR(a.rms, r.initialRms, 1e-9);
+}
+
+// The same run with a solver that can run a phase on the loading path: the
+// last phase is run once more from the initial design, on the path, instead
+// of ending stalled; finding nothing better there, the run is converged with
+// the initial design, whose archived equilibria are the ones it ended at.
+TEST(DesignDriver, ALastPhaseWorseOnThePathThanItsStartIsRunOnThePath) {
+  Scene s = testutil::invertibleArch();
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  const ControlValues c0 = space.initialControls(s);
+  const Design d0 = space.toDesign(c0);
+  s.poses[0].target = model.pose(0).positions(testutil::invertedArchState(s, model.pose(0), d0), d0);
+  SceneModel targeted(s);
+  ControlValues thick = c0;
+  thick.radii *= 1.2;
+  const PoseState inverted = testutil::invertedArchState(s, targeted.pose(0), space.toDesign(thick));
+  ScriptedPhases phases;
+  phases.onPath = true;
+  phases.script = [&](const PhaseTask& task, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 5;
+    if (task.attempt == 0) r.candidates.push_back({thick, {inverted}});
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
+  ASSERT_EQ(phases.tasks.size(), 3u) << r.message;
+  EXPECT_FALSE(phases.tasks[1].onPath);
+  EXPECT_TRUE(phases.tasks[2].onPath);
+  EXPECT_TRUE(sameControls(phases.tasks[2].controls, c0));
+  EXPECT_DOUBLE_EQ(phases.tasks[2].objective, r.initialObjective);
+  EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
+  EXPECT_TRUE(sameControls(r.controls, c0)) << r.message;
+  EXPECT_NE(r.message.find("is worse than the initial design"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("run once more from it, every equilibrium solved from rest"), std::string::npos)
+      << r.message;
   const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
   EXPECT_FALSE(a.offPath) << a.note;
   EXPECT_NEAR(a.rms, r.initialRms, 1e-9);
