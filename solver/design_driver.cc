@@ -727,9 +727,15 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   }
 
   if (monitor_) {
-    waitForMonitor();
+    // A run that converged by its own tests, on its optimizer's equilibria
+    // throughout, archives its own design: the checks still queued are not
+    // waited for (seconds on a run that met its targets quickly), and the
+    // monitor's best design is no fallback either, since which designs were
+    // checked by then depends on timing.
+    const bool needed = stop != Outcome::Converged || wentOnFromPath_;
+    if (needed) waitForMonitor();
     monitor_->stop();
-    if (adoptConfirmed(*monitor_, stop, res_, optimizer_, fallbacks_))
+    if (needed && adoptConfirmed(*monitor_, stop, res_, optimizer_, fallbacks_))
       message += "; the best design confirmed during the run (iteration " + std::to_string(monitor_->best()->iteration) +
                  ") is better than the last phase's and is the result";
   }
