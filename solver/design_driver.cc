@@ -514,7 +514,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   if (opt_.confirmDesigns)
     monitor_ = std::make_unique<DesignMonitor>(scene_, space_, opt_.newton, states_, f0, t0_, opt_.onConfirmed);
 
-  const std::vector<DesignStep> steps = designSchedule(scene_, space_, opt_);
+  std::vector<DesignStep> steps = designSchedule(scene_, space_, opt_);
   Outcome stop = Outcome::Converged;
   std::string message = "schedule completed";
   std::vector<std::string> notes;  // what the phase ends did besides keeping designs
@@ -526,6 +526,22 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   bool seededRetry = false;    // the last phase was run again from a seeded rest shape
   bool onPathRetry = false;    // the last phase was run again on the loading path (PhaseTask::onPath)
   int phaseIndex = 0;
+  // A run that went on from a loading path's equilibria and is about to end
+  // worse, as loaded from rest, than a design it held before (`why`): that
+  // design is adopted and the run goes on with a phase run on the loading
+  // path (PhaseTask::onPath), the last resort also used when the last phase
+  // ends off the path twice. False when there is no such design.
+  auto onPathFromBest = [&](const std::string& why) {
+    if (!wentOnFromPath_ || onPathRetry || !solver.solvesOnPath() || interrupted() || timeUp()) return false;
+    const OnPathDesign best = bestKnownOnPath();
+    if (sameControls(best.controls, res_.controls) || !(best.objective < res_.objective)) return false;
+    notes.push_back(why + ": its design as loaded from rest (RMS " + millimetres(res_.rms) + ") is worse than " +
+                    best.label + " (RMS " + millimetres(best.rms) + "); a last phase was run from that design, every "
+                    "equilibrium solved from rest along its loading path");
+    adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);
+    onPathRetry = true;
+    return true;
+  };
   for (std::size_t ph = 0; ph < steps.size(); ++ph) {
     const DesignStep& step = steps[ph];
     if (step.round > 0 && step.phase.restShape && attempt == 0) {
@@ -683,20 +699,10 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     // phase ended (on its path) worse, as loaded from rest, than a design it
     // held before: the last phase once more from that design, on the path
     // (the last resort above).
-    if (task.lastPhase && !offPath && wentOnFromPath_ && !onPathRetry && solver.solvesOnPath() && !interrupted() &&
-        !timeUp()) {
-      const OnPathDesign best = bestKnownOnPath();
-      if (!sameControls(best.controls, res_.controls) && best.objective < res_.objective) {
-        notes.push_back("the last phase's design as loaded from rest (RMS " + millimetres(res_.rms) +
-                        ") is worse than " + best.label + " (RMS " + millimetres(best.rms) +
-                        "); the last phase was run once more from it, every equilibrium solved from rest along "
-                        "its loading path");
-        adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);
-        onPathRetry = true;
-        ++attempt;
-        --ph;
-        continue;
-      }
+    if (task.lastPhase && !offPath && onPathFromBest("the last phase ended on its loading path")) {
+      ++attempt;
+      --ph;
+      continue;
     }
     attempt = 0;
     retryDiverged = false;
@@ -713,6 +719,13 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
                       "rest-shape/radii round %d lowered the objective by %.2g%% (less than %.2g%%, or the RMS by less "
                       "than %.2g%% of the initial design's per iteration)",
                       step.round, 100 * gain, 100 * opt_.roundRelativeDecrease, 100 * kMeaningfulRmsPerIteration);
+        // The alternation ends; from a better design on its path, a joint
+        // phase on the path instead (the last resort above).
+        if (onPathFromBest(buf)) {
+          steps.resize(ph + 1);
+          steps.push_back({{scene_.design.radii, scene_.design.restShape, space_.numLevels() - 1}, 0});
+          continue;
+        }
         message = buf;
         break;
       }

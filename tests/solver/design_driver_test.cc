@@ -557,7 +557,8 @@ TEST(DesignDriver, ALastPhaseWorseOnThePathThanItsStartIsRunOnThePath) {
   EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
   EXPECT_TRUE(sameControls(r.controls, c0)) << r.message;
   EXPECT_NE(r.message.find("is worse than the initial design"), std::string::npos) << r.message;
-  EXPECT_NE(r.message.find("run once more from it, every equilibrium solved from rest"), std::string::npos)
+  EXPECT_NE(r.message.find("a last phase was run from that design, every equilibrium solved from rest"),
+            std::string::npos)
       << r.message;
   const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
   EXPECT_FALSE(a.offPath) << a.note;
