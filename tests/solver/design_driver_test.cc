@@ -565,6 +565,49 @@ TEST(DesignDriver, ALastPhaseWorseOnThePathThanItsStartIsRunOnThePath) {
   EXPECT_NEAR(a.rms, r.initialRms, 1e-9);
 }
 
+// The alternation's round test ending such a run (the reduced method's
+// schedule): a joint phase at the finest level on the path from the better
+// design, not the end. The arch with radii and rest shape free; round 1's
+// rest-shape phase proposes the thick arch inverted (off its path: loaded
+// from rest it stays up), the phases after it nothing.
+TEST(DesignDriver, AnAlternationEndingWorseOnThePathEndsWithAJointPhaseOnThePath) {
+  Scene s = testutil::invertibleArch();
+  s.design.restShape = true;
+  SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  const ControlValues c0 = space.initialControls(s);
+  const Design d0 = space.toDesign(c0);
+  s.poses[0].target = model.pose(0).positions(testutil::invertedArchState(s, model.pose(0), d0), d0);
+  SceneModel targeted(s);
+  ControlValues thick = c0;
+  thick.radii *= 1.2;
+  const PoseState inverted = testutil::invertedArchState(s, targeted.pose(0), space.toDesign(thick));
+  ScriptedPhases phases;
+  phases.onPath = true;
+  phases.script = [&](const PhaseTask& task, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 5;
+    if (task.step.round == 1 && task.step.phase.restShape && task.attempt == 0)
+      r.candidates.push_back({thick, {inverted}});
+    return r;
+  };
+  DesignOptimizerOptions options = driverOptions();
+  options.schedule = Schedule::Paper;
+  const DesignOptimizerResult r = runDesign(targeted, space, options, phases);
+  ASSERT_GE(phases.tasks.size(), 2u) << r.message;
+  const PhaseTask& last = phases.tasks.back();
+  EXPECT_TRUE(last.onPath) << r.message;
+  EXPECT_TRUE(last.step.phase.radii && last.step.phase.restShape) << "a joint phase";
+  EXPECT_EQ(last.step.phase.level, space.numLevels() - 1);
+  for (std::size_t i = 0; i + 1 < phases.tasks.size(); ++i) EXPECT_FALSE(phases.tasks[i].onPath) << i;
+  EXPECT_NE(r.message.find("a last phase was run from that design"), std::string::npos) << r.message;
+  EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
+  EXPECT_LE(r.objective, r.initialObjective);
+  const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
+  EXPECT_FALSE(a.offPath) << a.note;
+  EXPECT_NEAR(a.rms, r.rms, 1e-9);
+}
+
 // A run that went on from the loading path and whose last phase ends on its
 // path, with a design better than any before, is converged with that design:
 // the best design on its path is then the last design itself, whatever the
