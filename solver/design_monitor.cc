@@ -132,8 +132,8 @@ void DesignMonitor::run() {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
       if (stopping_) break;
-      offer = std::move(queue_.front());
-      queue_.pop_front();
+      offer = std::move(queue_.back());  // the newest first: what a run cut short can use
+      queue_.pop_back();
       busy_ = true;
     }
     try {
@@ -154,55 +154,19 @@ void DesignMonitor::run() {
 void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
   if (!offer.controls.radii.allFinite() || !offer.controls.displacement.allFinite()) return;
   const Design d = space_.toDesign(offer.controls);
-  const int K = model.numPoses();
-  double threshold;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    threshold = bestObjective_;
-  }
-  // 1. Warm started from the last converged equilibria: a cheap test that
-  //    the design has equilibria near the optimizer's branch and is better.
-  //    When the design has moved beyond where that start converges (a
-  //    retried phase, a large step), the equilibria from rest (solved as in
-  //    step 2, once) become the warm start instead; otherwise every later,
-  //    farther design would fail the same way and nothing would be
-  //    confirmed again.
-  if (static_cast<int>(warm_.size()) != K) return;
-  SimulationResult warmSim;
-  std::vector<PoseState> states;
-  auto solveFrom = [&](std::vector<PoseState> start) {
-    warmSim.poses.clear();
-    for (int k = 0; k < K; ++k) {
-      const NewtonReport r = solveEquilibrium(model.pose(k), d, start[k], newton_);
-      if (!r.converged() || start[k].loadFactor != 1.0) return false;
-      PoseResult pr;
-      pr.positions = model.pose(k).positions(start[k], d);
-      warmSim.poses.push_back(std::move(pr));
-    }
-    states = std::move(start);
-    return true;
-  };
-  std::optional<SimulationResult> fromRest;
-  if (!solveFrom(warm_)) {
-    if (cancel_.load()) return;
-    fromRest = simulateAll(model, d, newton_);
-    if (cancel_.load() || !fromRest->allConverged) return;
-    states.clear();
-    for (const PoseResult& pr : fromRest->poses) {
-      if (pr.state.loadFactor != 1.0) return;
-      states.push_back(pr.state);
-    }
-  }
-  if (cancel_.load()) return;
-  warm_ = states;  // converged: the next check starts here
-  if (!fromRest && !(simulationObjective(scene_, warmSim) < threshold)) return;
-  // 2. From rest, as `rodmesh simulate` and the archive solve it (done
-  //    above when the warm start failed).
-  SimulationResult sim = fromRest ? std::move(*fromRest) : simulateAll(model, d, newton_);
+  // From rest, as `rodmesh simulate` and the archive solve it. No warm
+  // start: a design's check does not depend on which designs were checked
+  // before it, so the best design after every offer was checked is the
+  // same whatever the order (the newest is checked first).
+  SimulationResult sim = simulateAll(model, d, newton_);
   if (cancel_.load() || !sim.allConverged) return;
+  std::vector<PoseState> states;
+  for (const PoseResult& pr : sim.poses) {
+    if (pr.state.loadFactor != 1.0) return;
+    states.push_back(pr.state);
+  }
   double ss = 0.0;
   const double f = simulationObjective(scene_, sim, &ss);
-  if (!(f < threshold)) return;
   ConfirmedDesign c;
   c.controls = offer.controls;
   c.design = d;
@@ -216,7 +180,9 @@ void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
   c.elapsed = std::chrono::duration<double>(Clock::now() - t0_).count();
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!(f < bestObjective_)) return;
+    // Lower objective, or the same with an earlier iteration (an order-free rule).
+    const bool better = f < bestObjective_ || (best_ && f == bestObjective_ && offer.iteration < best_->iteration);
+    if (!better) return;
     bestObjective_ = f;
     best_ = c;
   }

@@ -2,20 +2,18 @@
 // "Confirmed designs"). SAND's iterates are not equilibria, and even the
 // reduced method's iterates are equilibria only on the optimizer's own branch
 // (warm starts); the archive wants designs whose poses re-solve from rest
-// (solver/design_fallback.hh). The monitor takes the optimizer's current
-// design whenever the optimizer offers one, re-solves it on a background
-// thread with a model of its own (so it runs on the second core while the
-// optimizer goes on), and keeps the best design whose every pose
-//   1. converges by Newton warm-started from the last confirmed equilibria
-//      (cheap, and it rejects designs worse than the best so far), then
-//   2. converges from the rest state, as `rodmesh simulate` solves it,
-// with a lower objective than every design confirmed before (the first must
-// beat the initial design). Every offer is checked, in the order made, so
-// that what the monitor confirms does not depend on how far its thread got:
-// the driver offers the iterations `confirmsIteration` names (all of the
-// first ten, then about every fifth part more), which keeps the queue short,
-// and waits for the queue (`drain`) before it uses the best design, unless
-// the run is being cut short.
+// (solver/design_fallback.hh). The monitor takes the optimizer's designs
+// the driver offers (the iterations `confirmsIteration` names: all of the
+// first ten, then about every fifth part more), re-solves each from rest, as
+// `rodmesh simulate` solves it, on a background thread with a model of its
+// own (so it runs on the second core while the optimizer goes on), and
+// keeps the best design whose every pose converges, with a lower objective
+// than the initial design's. Every offer is checked, the newest first (the
+// one a run cut short wants), and a check does not depend on the checks
+// before it, so once every offer was checked (`drain`) the best design
+// depends only on the optimizer's iterates, not on how far the thread got:
+// the driver waits for that before it uses it, unless the run is being cut
+// short.
 #pragma once
 
 #include "model/design_space.hh"
@@ -41,7 +39,7 @@ struct ConfirmedDesign {
   ControlValues controls;
   Design design;
   SimulationResult simulation;    // every pose from rest (rodmesh simulate's solve), all converged
-  std::vector<PoseState> states;  // the warm-started equilibria (the optimizer's branch)
+  std::vector<PoseState> states;  // the equilibria of `simulation` (the loading path's)
   double objective = std::numeric_limits<double>::infinity();  // f (contract §4) on `simulation`
   double rms = 0.0;                                             // m, on `simulation`
   int iteration = 0;                                            // the optimizer iteration that offered it
@@ -63,7 +61,7 @@ bool confirmsIteration(int iteration);
 class DesignMonitor {
  public:
   using Clock = std::chrono::steady_clock;
-  // `warm`: equilibria of the initial design (the first warm start);
+  // `warm`: equilibria of the initial design (the states it holds for it);
   // `initialObjective`: the initial design's f, which a confirmed design must
   // beat; `t0`: the run's start; `onConfirmed` (optional) is called on the
   // monitor's thread, first with the initial design re-solved from rest
@@ -104,7 +102,7 @@ class DesignMonitor {
   const Scene& scene_;
   const DesignSpace& space_;
   NewtonOptions newton_;
-  std::vector<PoseState> warm_;  // the monitor thread's own
+  std::vector<PoseState> warm_;  // the initial design's equilibria
   Clock::time_point t0_;
   std::function<void(const ConfirmedDesign&)> onConfirmed_;
 

@@ -185,11 +185,10 @@ TEST_F(DesignMonitorTest, ConfirmsOnlyDesignsThatReSolveFromRestBetterThanAllBef
   EXPECT_EQ(reported[2].iteration, 4);
 }
 
-// A warm start from which no design converges any more (here: not finite;
-// in a run: equilibria of a design far behind the optimizer's, after a
-// retried phase) is replaced by the equilibria from rest, so that designs
-// are still confirmed, and the next check starts from those.
-TEST_F(DesignMonitorTest, AWarmStartThatNoLongerConvergesIsReplacedByTheEquilibriaFromRest) {
+// The monitor does not warm start: with initial equilibria that are no use
+// at all (not finite) it still confirms designs, and the states it holds for
+// a confirmed design are the loading path's (the simulation's own).
+TEST_F(DesignMonitorTest, ConfirmedStatesAreTheLoadingPathsEquilibria) {
   std::vector<PoseState> broken = warm_;
   for (PoseState& s : broken) s.u.setConstant(std::numeric_limits<double>::quiet_NaN());
   DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, broken, initialObjective_,
@@ -199,7 +198,7 @@ TEST_F(DesignMonitorTest, AWarmStartThatNoLongerConvergesIsReplacedByTheEquilibr
   ASSERT_TRUE(monitor.best().has_value()) << "the design re-solves from rest better than the initial one";
   EXPECT_EQ(monitor.best()->iteration, 1);
   {
-    // Solved from rest once: its states are the simulation's own (to
+    // Its states are the simulation's own (to
     // round-off: the positions are evaluated by another model of the scene).
     const std::optional<ConfirmedDesign> first = monitor.best();
     SceneModel model(problem_.scene);
@@ -220,9 +219,11 @@ TEST_F(DesignMonitorTest, AWarmStartThatNoLongerConvergesIsReplacedByTheEquilibr
   monitor.stop();
 }
 
-// Every offer is checked, in the order made, however fast they come: the
-// design a run ends with must not depend on how far the monitor's thread got.
-TEST_F(DesignMonitorTest, EveryOfferIsCheckedInTheOrderMade) {
+// Every offer is checked, however fast they come, and the best design once
+// all were checked does not depend on the order of the checks (the newest is
+// checked first): the design a run ends with must not depend on how far the
+// monitor's thread got.
+TEST_F(DesignMonitorTest, EveryOfferIsCheckedAndTheBestDoesNotDependOnTheOrder) {
   std::vector<int> reported;
   std::mutex m;
   DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
@@ -230,17 +231,39 @@ TEST_F(DesignMonitorTest, EveryOfferIsCheckedInTheOrderMade) {
                           std::lock_guard<std::mutex> lock(m);
                           if (!c.initial) reported.push_back(c.iteration);
                         });
-  // Each better than the one before; offered without waiting.
-  const double ts[] = {0.2, 0.4, 0.6, 0.8, 1.0};
+  // The best (t = 0.8) in the middle; offered without waiting.
+  const double ts[] = {0.2, 0.4, 0.8, 0.6, 0.3};
   for (int i = 0; i < 5; ++i) monitor.offer(between(ts[i]), i + 1, "t = " + std::to_string(ts[i]));
   monitor.drain();
   EXPECT_EQ(monitor.checked(), 5);
-  EXPECT_EQ(monitor.confirmed(), 5);
   ASSERT_TRUE(monitor.best().has_value());
-  EXPECT_EQ(monitor.best()->iteration, 5);
+  EXPECT_EQ(monitor.best()->iteration, 3);
+  // The same design offered again, later: an equal objective keeps the
+  // earlier iteration, although the later offer may be checked first.
+  monitor.offer(between(0.8), 9, "t = 0.8 again");
+  monitor.offer(between(0.1), 10, "t = 0.1");
+  monitor.drain();
+  EXPECT_EQ(monitor.checked(), 7);
+  EXPECT_EQ(monitor.best()->iteration, 3);
   monitor.stop();
   std::lock_guard<std::mutex> lock(m);
-  EXPECT_EQ(reported, (std::vector<int>{1, 2, 3, 4, 5}));
+  ASSERT_FALSE(reported.empty());
+  EXPECT_EQ(reported.back(), 3);
+}
+
+// The tie rule on its own: two offers of one design, queued while the
+// monitor is busy, so that the later one is checked first.
+TEST_F(DesignMonitorTest, OfEqualDesignsTheEarlierIterationIsKept) {
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+                        DesignMonitor::Clock::now());
+  for (int i = 1; i <= 6; ++i) monitor.offer(between(0.1 * i), i, "busy " + std::to_string(i));
+  monitor.offer(between(1.0), 20, "hidden, first");
+  monitor.offer(between(1.0), 30, "hidden, again");
+  monitor.drain();
+  ASSERT_TRUE(monitor.best().has_value());
+  EXPECT_EQ(monitor.best()->iteration, 20);
+  EXPECT_EQ(monitor.checked(), 8);
+  monitor.stop();
 }
 
 TEST_F(DesignMonitorTest, ADrainGivesUpWhenAskedTo) {
