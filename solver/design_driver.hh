@@ -36,7 +36,8 @@ struct PhaseTask {
   bool handsOver = false;      // a phase the schedule continues before any alternation (radius levels)
   int iterationBase = 0;       // run iterations before this phase
   int remainingIterations = 0; // of the run's --max-iter
-  int attempt = 0;             // 0, or 1 for the retry of a phase (diverged, or ended off the loading path)
+  int attempt = 0;             // 0, or the how-many-th run of the same phase (a retry: diverged, ended off the
+                               // loading path, or the last resort on the path)
   bool diverged = false;       // the retry of a phase whose iterates left equilibrium far behind, or that ended
                                // at an optimum no stable equilibrium realizes (DesignDriver::unreachedOptimum)
   bool onPath = false;         // the last phase run once more with every equilibrium solved from rest along the
