@@ -486,6 +486,33 @@ TEST(DesignDriver, ARestShapeSeededTowardsTheDesignedBranchBringsThePathOntoIt) 
   EXPECT_NEAR(a.rms, r.rms, 1e-9);
 }
 
+// The arch with its targets on the initial design's inverted branch, and a
+// thicker arch with its inverted equilibrium: a design the optimizer may
+// hold there, which loaded from rest stays up, farther from the targets.
+struct ThickArchTargetedInverted {
+  explicit ThickArchTargetedInverted(bool restShape = false)
+      : s(makeScene(restShape)), targeted(s), space(s, targeted.effects()) {
+    c0 = space.initialControls(s);
+    thick = c0;
+    thick.radii *= 1.2;
+    inverted = testutil::invertedArchState(s, targeted.pose(0), space.toDesign(thick));
+  }
+  static Scene makeScene(bool restShape) {
+    Scene a = testutil::invertibleArch();
+    a.design.restShape = restShape;
+    SceneModel model(a);
+    const DesignSpace space(a, model.effects());
+    const Design d0 = space.toDesign(space.initialControls(a));
+    a.poses[0].target = model.pose(0).positions(testutil::invertedArchState(a, model.pose(0), d0), d0);
+    return a;
+  }
+  Scene s;
+  SceneModel targeted;
+  DesignSpace space;
+  ControlValues c0, thick;
+  PoseState inverted;
+};
+
 // A run that went on from the loading path's equilibria and found nothing
 // better there ends with the best design whose equilibria are its loading
 // path's: here the initial design, as the thicker arch the phase proposed
@@ -493,18 +520,13 @@ TEST(DesignDriver, ARestShapeSeededTowardsTheDesignedBranchBringsThePathOntoIt) 
 // farther from the inverted targets than the initial arch. The run is not
 // converged: the archived equilibria are not the ones it ended at.
 TEST(DesignDriver, ARunWorseOnThePathThanItsStartKeepsTheStart) {
-  Scene s = testutil::invertibleArch();
-  SceneModel model(s);
-  const DesignSpace space(s, model.effects());
-  const ControlValues c0 = space.initialControls(s);
-  const Design d0 = space.toDesign(c0);
-  s.poses[0].target = model.pose(0).positions(testutil::invertedArchState(s, model.pose(0), d0), d0);
-  SceneModel targeted(s);
-  ControlValues thick = c0;
-  thick.radii *= 1.2;
-  const Design d1 = space.toDesign(thick);
-  const PoseState inverted = testutil::invertedArchState(s, targeted.pose(0), d1);
-  ASSERT_LT(targeted.pose(0).positions(inverted, d1)[20].z(), -0.04);
+  const ThickArchTargetedInverted arch;
+  const SceneModel& targeted = arch.targeted;
+  const DesignSpace& space = arch.space;
+  const ControlValues& c0 = arch.c0;
+  const ControlValues& thick = arch.thick;
+  const PoseState& inverted = arch.inverted;
+  ASSERT_LT(targeted.pose(0).positions(inverted, space.toDesign(thick))[20].z(), -0.04);
   ScriptedPhases phases;
   phases.script = [&](const PhaseTask& task, PhaseContext&) {
     PhaseResult r;
@@ -530,16 +552,12 @@ TEST(DesignDriver, ARunWorseOnThePathThanItsStartKeepsTheStart) {
 // of ending stalled; finding nothing better there, the run is converged with
 // the initial design, whose archived equilibria are the ones it ended at.
 TEST(DesignDriver, ALastPhaseWorseOnThePathThanItsStartIsRunOnThePath) {
-  Scene s = testutil::invertibleArch();
-  SceneModel model(s);
-  const DesignSpace space(s, model.effects());
-  const ControlValues c0 = space.initialControls(s);
-  const Design d0 = space.toDesign(c0);
-  s.poses[0].target = model.pose(0).positions(testutil::invertedArchState(s, model.pose(0), d0), d0);
-  SceneModel targeted(s);
-  ControlValues thick = c0;
-  thick.radii *= 1.2;
-  const PoseState inverted = testutil::invertedArchState(s, targeted.pose(0), space.toDesign(thick));
+  const ThickArchTargetedInverted arch;
+  const SceneModel& targeted = arch.targeted;
+  const DesignSpace& space = arch.space;
+  const ControlValues& c0 = arch.c0;
+  const ControlValues& thick = arch.thick;
+  const PoseState& inverted = arch.inverted;
   ScriptedPhases phases;
   phases.onPath = true;
   phases.script = [&](const PhaseTask& task, PhaseContext&) {
@@ -571,17 +589,11 @@ TEST(DesignDriver, ALastPhaseWorseOnThePathThanItsStartIsRunOnThePath) {
 // rest-shape phase proposes the thick arch inverted (off its path: loaded
 // from rest it stays up), the phases after it nothing.
 TEST(DesignDriver, AnAlternationEndingWorseOnThePathEndsWithAJointPhaseOnThePath) {
-  Scene s = testutil::invertibleArch();
-  s.design.restShape = true;
-  SceneModel model(s);
-  const DesignSpace space(s, model.effects());
-  const ControlValues c0 = space.initialControls(s);
-  const Design d0 = space.toDesign(c0);
-  s.poses[0].target = model.pose(0).positions(testutil::invertedArchState(s, model.pose(0), d0), d0);
-  SceneModel targeted(s);
-  ControlValues thick = c0;
-  thick.radii *= 1.2;
-  const PoseState inverted = testutil::invertedArchState(s, targeted.pose(0), space.toDesign(thick));
+  const ThickArchTargetedInverted arch(/*restShape=*/true);
+  const SceneModel& targeted = arch.targeted;
+  const DesignSpace& space = arch.space;
+  const ControlValues& thick = arch.thick;
+  const PoseState& inverted = arch.inverted;
   ScriptedPhases phases;
   phases.onPath = true;
   phases.script = [&](const PhaseTask& task, PhaseContext&) {
