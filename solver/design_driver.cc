@@ -451,10 +451,11 @@ std::string DesignDriver::adoptBestOnPath() {
   // prescribed rotations), and a design the optimizer scored worse on its
   // own branch is rarely better from rest.
   std::vector<std::pair<ControlValues, std::string>> tries;
-  if (monitor_) waitForMonitor();
-  if (monitor_)
+  if (monitor_) {
+    waitForMonitor();
     if (const std::optional<ConfirmedDesign> c = monitor_->best(); c && c->objective < best)
       tries.emplace_back(c->controls, c->label + " (confirmed from rest during the run)");
+  }
   for (const FallbackDesign& c : candidates) {
     if (!(c.objective < best)) break;
     tries.emplace_back(c.controls, c.label);
@@ -512,7 +513,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   // The optimizer's designs are re-solved on a second thread, so that a
   // design that re-solves from rest is at hand at every moment.
   if (opt_.confirmDesigns)
-    monitor_ = std::make_unique<DesignMonitor>(scene_, space_, opt_.newton, states_, f0, t0_, opt_.onConfirmed);
+    monitor_ = std::make_unique<DesignMonitor>(scene_, space_, opt_.newton, f0, t0_, opt_.onConfirmed);
 
   std::vector<DesignStep> steps = designSchedule(scene_, space_, opt_);
   Outcome stop = Outcome::Converged;

@@ -29,12 +29,11 @@ bool confirmsIteration(int iteration) {
 }
 
 DesignMonitor::DesignMonitor(const Scene& scene, const DesignSpace& space, const NewtonOptions& newton,
-                             std::vector<PoseState> warm, double initialObjective, Clock::time_point t0,
+                             double initialObjective, Clock::time_point t0,
                              std::function<void(const ConfirmedDesign&)> onConfirmed)
     : scene_(scene),
       space_(space),
       newton_(newton),
-      warm_(std::move(warm)),
       t0_(t0),
       onConfirmed_(std::move(onConfirmed)),
       bestObjective_(initialObjective) {
@@ -107,22 +106,10 @@ void DesignMonitor::run() {
   try {
     // The initial design from rest: the design a run holds before any other
     // is confirmed.
-    const Design d0 = space_.toDesign(space_.initialControls(scene_));
-    SimulationResult sim = simulateAll(*model, d0, newton_);
-    if (sim.allConverged && !cancel_.load()) {
-      ConfirmedDesign c;
-      c.controls = space_.initialControls(scene_);
-      c.design = d0;
-      double ss = 0.0;
-      c.objective = simulationObjective(scene_, sim, &ss);
-      const double n = static_cast<double>(scene_.poses.size() * scene_.vertices.size());
-      c.rms = n > 0 ? std::sqrt(ss / n) : 0.0;
-      c.simulation = std::move(sim);
-      c.states = warm_;
-      c.label = "the initial design";
-      c.initial = true;
-      c.elapsed = std::chrono::duration<double>(Clock::now() - t0_).count();
-      if (onConfirmed_) onConfirmed_(c);
+    if (std::optional<ConfirmedDesign> c = fromRest(*model, space_.initialControls(scene_))) {
+      c->label = "the initial design";
+      c->initial = true;
+      if (onConfirmed_) onConfirmed_(*c);
     }
   } catch (const std::exception&) {
   }
@@ -151,43 +138,47 @@ void DesignMonitor::run() {
   idle_.notify_all();
 }
 
-void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
-  if (!offer.controls.radii.allFinite() || !offer.controls.displacement.allFinite()) return;
-  const Design d = space_.toDesign(offer.controls);
-  // From rest, as `rodmesh simulate` and the archive solve it. No warm
-  // start: a design's check does not depend on which designs were checked
-  // before it, so the best design after every offer was checked is the
-  // same whatever the order (the newest is checked first).
+std::optional<ConfirmedDesign> DesignMonitor::fromRest(const SceneModel& model, const ControlValues& controls) const {
+  // As `rodmesh simulate` and the archive solve it. No warm start: a
+  // design's check does not depend on which designs were checked before it,
+  // so the best design after every offer was checked is the same whatever
+  // the order (the newest is checked first).
+  const Design d = space_.toDesign(controls);
   SimulationResult sim = simulateAll(model, d, newton_);
-  if (cancel_.load() || !sim.allConverged) return;
-  std::vector<PoseState> states;
+  if (cancel_.load() || !sim.allConverged) return std::nullopt;
+  ConfirmedDesign c;
   for (const PoseResult& pr : sim.poses) {
-    if (pr.state.loadFactor != 1.0) return;
-    states.push_back(pr.state);
+    if (pr.state.loadFactor != 1.0) return std::nullopt;
+    c.states.push_back(pr.state);
   }
   double ss = 0.0;
-  const double f = simulationObjective(scene_, sim, &ss);
-  ConfirmedDesign c;
-  c.controls = offer.controls;
-  c.design = d;
-  c.simulation = std::move(sim);
-  c.states = std::move(states);
-  c.objective = f;
+  c.objective = simulationObjective(scene_, sim, &ss);
   const double n = static_cast<double>(scene_.poses.size() * scene_.vertices.size());
   c.rms = n > 0 ? std::sqrt(ss / n) : 0.0;
-  c.iteration = offer.iteration;
-  c.label = offer.label;
+  c.controls = controls;
+  c.design = d;
+  c.simulation = std::move(sim);
   c.elapsed = std::chrono::duration<double>(Clock::now() - t0_).count();
+  return c;
+}
+
+void DesignMonitor::check(const Offer& offer, const SceneModel& model) {
+  if (!offer.controls.radii.allFinite() || !offer.controls.displacement.allFinite()) return;
+  std::optional<ConfirmedDesign> c = fromRest(model, offer.controls);
+  if (!c) return;
+  c->iteration = offer.iteration;
+  c->label = offer.label;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     // Lower objective, or the same with an earlier iteration (an order-free rule).
-    const bool better = f < bestObjective_ || (best_ && f == bestObjective_ && offer.iteration < best_->iteration);
+    const bool better =
+        c->objective < bestObjective_ || (best_ && c->objective == bestObjective_ && offer.iteration < best_->iteration);
     if (!better) return;
-    bestObjective_ = f;
-    best_ = c;
+    bestObjective_ = c->objective;
+    best_ = *c;
   }
   confirmed_.fetch_add(1);
-  if (onConfirmed_) onConfirmed_(c);
+  if (onConfirmed_) onConfirmed_(*c);
 }
 
 }  // namespace rodmesh

@@ -61,14 +61,13 @@ bool confirmsIteration(int iteration);
 class DesignMonitor {
  public:
   using Clock = std::chrono::steady_clock;
-  // `warm`: equilibria of the initial design (the states it holds for it);
   // `initialObjective`: the initial design's f, which a confirmed design must
   // beat; `t0`: the run's start; `onConfirmed` (optional) is called on the
   // monitor's thread, first with the initial design re-solved from rest
   // (`initial` set; what a run stopped before any better design archives),
   // then with every new best design.
   DesignMonitor(const Scene& scene, const DesignSpace& space, const NewtonOptions& newton,
-                std::vector<PoseState> warm, double initialObjective, Clock::time_point t0,
+                double initialObjective, Clock::time_point t0,
                 std::function<void(const ConfirmedDesign&)> onConfirmed = {});
   ~DesignMonitor();
   DesignMonitor(const DesignMonitor&) = delete;
@@ -98,11 +97,13 @@ class DesignMonitor {
   };
   void run();
   void check(const Offer& offer, const SceneModel& model);
+  // `controls` solved from rest; empty when a pose fails (or the check is
+  // cancelled). Label and iteration are the caller's.
+  std::optional<ConfirmedDesign> fromRest(const SceneModel& model, const ControlValues& controls) const;
 
   const Scene& scene_;
   const DesignSpace& space_;
   NewtonOptions newton_;
-  std::vector<PoseState> warm_;  // the initial design's equilibria
   Clock::time_point t0_;
   std::function<void(const ConfirmedDesign&)> onConfirmed_;
 

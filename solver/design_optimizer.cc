@@ -642,8 +642,9 @@ class NewtonPhaseSolver : public PhaseSolver {
     Eigen::VectorXd preparedZ;  // where rh was last prepared (the last accepted design)
     problem.value = [&](const Eigen::VectorXd& y, double& f) {
       const Eigen::VectorXd z = y.cwiseProduct(s);
-      // Trial designs start their equilibria from the first-order prediction.
-      if (preparedZ.size() == z.size()) ro.predict(rh.equilibriumChange(z - preparedZ));
+      // Trial designs start their equilibria from the first-order prediction
+      // (not on the loading path: those start from rest).
+      if (!task.onPath && preparedZ.size() == z.size()) ro.predict(rh.equilibriumChange(z - preparedZ));
       return ro.evaluate(z, f, nullptr);
     };
     problem.prepare = [&](const Eigen::VectorXd& y, Eigen::VectorXd& g) {

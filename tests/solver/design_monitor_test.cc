@@ -110,11 +110,6 @@ class DesignMonitorTest : public testing::Test {
     ASSERT_TRUE(sim.allConverged);
     initialObjective_ = simulationObjective(problem_.scene, sim);
     ASSERT_GT(initialObjective_, 0.0);
-    for (int k = 0; k < model_->numPoses(); ++k) {
-      PoseState s = model_->pose(k).restState(d0);
-      ASSERT_TRUE(solveEquilibrium(model_->pose(k), d0, s, NewtonOptions{}).converged());
-      warm_.push_back(s);
-    }
   }
   // A design between the initial one and the hidden one: t = 0 initial, 1 hidden.
   ControlValues between(double t) const {
@@ -130,13 +125,12 @@ class DesignMonitorTest : public testing::Test {
   std::unique_ptr<DesignSpace> space_;
   ControlValues initial_;
   double initialObjective_ = 0.0;
-  std::vector<PoseState> warm_;
 };
 
 TEST_F(DesignMonitorTest, ConfirmsOnlyDesignsThatReSolveFromRestBetterThanAllBefore) {
   std::vector<ConfirmedDesign> reported;
   std::mutex m;
-  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, initialObjective_,
                         DesignMonitor::Clock::now(), [&](const ConfirmedDesign& c) {
                           std::lock_guard<std::mutex> lock(m);
                           reported.push_back(c);
@@ -181,17 +175,21 @@ TEST_F(DesignMonitorTest, ConfirmsOnlyDesignsThatReSolveFromRestBetterThanAllBef
   ASSERT_EQ(reported.size(), 3u);
   EXPECT_TRUE(reported[0].initial);
   EXPECT_NEAR(reported[0].objective, initialObjective_, 1e-9 * initialObjective_);
+  ASSERT_EQ(static_cast<int>(reported[0].states.size()), model_->numPoses());
+  for (int k = 0; k < model_->numPoses(); ++k) {
+    EXPECT_EQ(reported[0].states[k].loadFactor, 1.0);
+    const std::vector<Vec3> x = model_->pose(k).positions(reported[0].states[k], reported[0].design);
+    for (std::size_t v = 0; v < x.size(); ++v)
+      EXPECT_LT((x[v] - reported[0].simulation.poses[k].positions[v]).norm(), 1e-12) << "pose " << k << " vertex " << v;
+  }
   EXPECT_EQ(reported[1].iteration, 2);
   EXPECT_EQ(reported[2].iteration, 4);
 }
 
-// The monitor does not warm start: with initial equilibria that are no use
-// at all (not finite) it still confirms designs, and the states it holds for
-// a confirmed design are the loading path's (the simulation's own).
+// The states the monitor holds for a confirmed design are its loading
+// path's (the simulation's own), the initial design's included.
 TEST_F(DesignMonitorTest, ConfirmedStatesAreTheLoadingPathsEquilibria) {
-  std::vector<PoseState> broken = warm_;
-  for (PoseState& s : broken) s.u.setConstant(std::numeric_limits<double>::quiet_NaN());
-  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, broken, initialObjective_,
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, initialObjective_,
                         DesignMonitor::Clock::now());
   monitor.offer(between(0.5), 1, "half way");
   monitor.drain();
@@ -226,7 +224,7 @@ TEST_F(DesignMonitorTest, ConfirmedStatesAreTheLoadingPathsEquilibria) {
 TEST_F(DesignMonitorTest, EveryOfferIsCheckedAndTheBestDoesNotDependOnTheOrder) {
   std::vector<int> reported;
   std::mutex m;
-  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, initialObjective_,
                         DesignMonitor::Clock::now(), [&](const ConfirmedDesign& c) {
                           std::lock_guard<std::mutex> lock(m);
                           if (!c.initial) reported.push_back(c.iteration);
@@ -254,7 +252,7 @@ TEST_F(DesignMonitorTest, EveryOfferIsCheckedAndTheBestDoesNotDependOnTheOrder) 
 // The tie rule on its own: two offers of one design, queued while the
 // monitor is busy, so that the later one is checked first.
 TEST_F(DesignMonitorTest, OfEqualDesignsTheEarlierIterationIsKept) {
-  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, initialObjective_,
                         DesignMonitor::Clock::now());
   for (int i = 1; i <= 6; ++i) monitor.offer(between(0.1 * i), i, "busy " + std::to_string(i));
   monitor.offer(between(1.0), 20, "hidden, first");
@@ -267,7 +265,7 @@ TEST_F(DesignMonitorTest, OfEqualDesignsTheEarlierIterationIsKept) {
 }
 
 TEST_F(DesignMonitorTest, ADrainGivesUpWhenAskedTo) {
-  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, initialObjective_,
                         DesignMonitor::Clock::now());
   for (int i = 1; i <= 20; ++i) monitor.offer(between(0.05 * i), i, "offer " + std::to_string(i));
   EXPECT_FALSE(monitor.drain([] { return true; })) << "asked to give up at once, with checks queued";
@@ -301,7 +299,7 @@ TEST(ConfirmsIteration, TheFirstTenThenAboutEveryFifthPartMore) {
 }
 
 TEST_F(DesignMonitorTest, NonFiniteDesignsAreRejectedAndStopReturnsPromptly) {
-  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, warm_, initialObjective_,
+  DesignMonitor monitor(problem_.scene, *space_, NewtonOptions{}, initialObjective_,
                         DesignMonitor::Clock::now());
   ControlValues bad = initial_;
   bad.radii(0, 0) = std::numeric_limits<double>::quiet_NaN();
