@@ -532,6 +532,22 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   // design is adopted and the run goes on with a phase run on the loading
   // path (PhaseTask::onPath), the last resort also used when the last phase
   // ends off the path twice. False when there is no such design.
+  // The retry of a diverged phase (or of one whose optimum no stable
+  // equilibrium realizes) starts from the best design so far; a design
+  // confirmed from rest during the run (the monitor's, waited for) or found
+  // on its loading path that does better is that design, with its loading
+  // path's equilibria. Returns what the note says of the start.
+  auto retryStart = [&]() -> std::string {
+    const OnPathDesign best = bestKnownOnPath();
+    if (interrupted() || timeUp() || best.states.empty() || sameControls(best.controls, res_.controls) ||
+        !(best.objective < res_.objective))
+      return "";
+    const double before = res_.rms;
+    adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);
+    wentOnFromPath_ = true;
+    return " from " + best.label + " (RMS " + millimetres(best.rms) + " as loaded from rest, against " +
+           millimetres(before) + " for the best design the phase kept)";
+  };
   auto onPathFromBest = [&](const std::string& why) {
     if (!wentOnFromPath_ || onPathRetry || !solver.solvesOnPath() || interrupted() || timeUp()) return false;
     const OnPathDesign best = bestKnownOnPath();
@@ -599,7 +615,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
       if (const std::string why = unreachedOptimum(task, pr, kept); !why.empty()) {
         ++attempt;
         retryDiverged = true;
-        notes.push_back(why + "; the phase was " + solver.divergedRetry());
+        notes.push_back(why + "; the phase was " + solver.divergedRetry() + retryStart());
         --ph;
         continue;
       }
@@ -614,7 +630,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
         ++attempt;
         retryDiverged = true;
         notes.push_back("the iterates of " + task.label + " left equilibrium far behind (iteration " +
-                        std::to_string(iterations) + "); the phase was " + solver.divergedRetry());
+                        std::to_string(iterations) + "); the phase was " + solver.divergedRetry() + retryStart());
         --ph;
         continue;
       }

@@ -138,6 +138,46 @@ TEST(DesignDriver, RetriesADivergedPhaseOnceThenStops) {
   EXPECT_TRUE(sameControls(r.controls, c.space.initialControls(c.scene)));
 }
 
+// A phase whose iterates are no equilibria (SAND's) offers a design the
+// monitor confirms from rest, then diverges without a candidate better than
+// the start: the retry starts from the confirmed design, with its loading
+// path's equilibria, not from the phase's start.
+TEST(DesignDriver, ADivergedPhaseIsRunAgainFromTheBestDesignConfirmedFromRest) {
+  Cantilever c;
+  ScriptedPhases phases;
+  phases.equilibria = false;
+  const ControlValues better = c.thinner(0.8);
+  phases.script = [&](const PhaseTask& task, PhaseContext& context) {
+    PhaseResult r;
+    r.iterations = 1;
+    if (task.attempt == 0) {
+      DesignIterate it;
+      it.iteration = task.iterationBase + 1;
+      context.iterate(it, &better, false, false);
+      r.end = PhaseEnd::Diverged;
+    }
+    return r;
+  };
+  DesignOptimizerOptions o = driverOptions();
+  o.confirmDesigns = true;
+  const DesignOptimizerResult r = runDesign(c.model, c.space, o, phases);
+  ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
+  EXPECT_TRUE(phases.tasks[1].diverged);
+  EXPECT_TRUE(sameControls(phases.tasks[1].controls, better)) << "the retry starts from the confirmed design";
+  // Its equilibria are the loading path's of that design.
+  const std::vector<PoseState> path = c.equilibria(better);
+  ASSERT_EQ(phases.tasks[1].states.size(), path.size());
+  const Design d = c.space.toDesign(better);
+  for (std::size_t k = 0; k < path.size(); ++k) {
+    const std::vector<Vec3> x = c.model.pose(static_cast<int>(k)).positions(phases.tasks[1].states[k], d);
+    const std::vector<Vec3> y = c.model.pose(static_cast<int>(k)).positions(path[k], d);
+    for (std::size_t v = 0; v < x.size(); ++v) EXPECT_LT((x[v] - y[v]).norm(), 1e-9);
+  }
+  EXPECT_LT(phases.tasks[1].objective, r.initialObjective);
+  EXPECT_TRUE(sameControls(r.controls, better));
+  EXPECT_NE(r.message.find("confirmed from rest"), std::string::npos) << r.message;
+}
+
 // A clamped column (1 m, r = 1 cm, 20 edges) under twice its buckling load,
 // radii free, targets 1 mm beside its straight (compressed) shape. The
 // straight shape is an equilibrium, but an unstable one (one negative
