@@ -165,6 +165,8 @@ ArchivePose makeArchivePose(const std::string& name, const std::vector<Vec3>& po
   p.smallestEigenvalue = solve.smallestEigenvalue;
   p.unloadedSmallestEigenvalue = solve.unloadedSmallestEigenvalue;
   p.criticalPoints = solve.criticalPoints;
+  p.imperfectionSensitive = solve.imperfectionSensitive;
+  p.imperfectionGap = solve.imperfectionGap;
   return p;
 }
 
@@ -210,6 +212,24 @@ std::string criticalPointNote(const PoseResult& p) {
   return buf;
 }
 
+std::string imperfectionNote(const PoseResult& p) {
+  char buf[480];
+  if (!std::isfinite(p.imperfectionGap.value_or(0.0)))
+    std::snprintf(buf, sizeof buf,
+                  "pose '%s' is imperfection-sensitive: with every radius changed by %.2g%% (either way) its loading "
+                  "path does not reach an equilibrium; a printed object, whose radii are never exact, may not reach "
+                  "the designed pose",
+                  p.name.c_str(), 100 * kImperfectionRadiusChange);
+  else
+    std::snprintf(buf, sizeof buf,
+                  "pose '%s' is imperfection-sensitive: with every radius changed by %.2g%% (either way) its loading "
+                  "path reaches an equilibrium up to %.4g mm away (largest displacement from rest %.4g mm); a printed "
+                  "object, whose radii are never exact, may reach another equilibrium than the designed one",
+                  p.name.c_str(), 100 * kImperfectionRadiusChange, *p.imperfectionGap * 1e3,
+                  p.largestDisplacement.value_or(0.0) * 1e3);
+  return buf;
+}
+
 PoseSolveSummary newtonSolveSummary(const PoseResult& pr) {
   PoseSolveSummary sum;
   sum.solve = pr.report;
@@ -217,6 +237,10 @@ PoseSolveSummary newtonSolveSummary(const PoseResult& pr) {
   if (pr.stable) sum.stable = *pr.stable ? 1 : 0;
   sum.smallestEigenvalue = pr.smallestEigenvalue;
   sum.unloadedSmallestEigenvalue = pr.unloadedSmallestEigenvalue;
+  if (pr.imperfectionGap) {
+    sum.imperfectionSensitive = pr.imperfectionSensitive() ? 1 : 0;
+    if (std::isfinite(*pr.imperfectionGap)) sum.imperfectionGap = pr.imperfectionGap;
+  }
   const auto& cps = pr.report.criticalPoints;
   sum.criticalPoints.resize(static_cast<Eigen::Index>(cps.size()), 3);
   for (std::size_t k = 0; k < cps.size(); ++k)

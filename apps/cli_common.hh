@@ -60,6 +60,8 @@ struct PoseSolveSummary {
   std::optional<double> smallestEigenvalue;  // N/m
   std::optional<double> unloadedSmallestEigenvalue;  // N/m, of the rest state under the pose's supports
   MatX3 criticalPoints;                      // load factor, eigenvalue (N/m), jump (m) per row
+  int imperfectionSensitive = -1;            // 1/0 (PoseResult::imperfectionSensitive); -1 not judged
+  std::optional<double> imperfectionGap;     // m, when finite
 };
 
 // The summary of a pose solved by Newton (simulateAll): non-finite loads or
@@ -69,6 +71,9 @@ PoseSolveSummary newtonSolveSummary(const PoseResult& pr);
 // "pose 'NAME' is at a critical point (...)": what a stable equilibrium with
 // PoseResult::atCriticalPoint() means for the object.
 std::string criticalPointNote(const PoseResult& p);
+// "pose 'NAME' is imperfection-sensitive (...)": what
+// PoseResult::imperfectionSensitive() means for the object.
+std::string imperfectionNote(const PoseResult& p);
 
 // Row-per-entry matrices for the archive.
 MatX3 toRows(const std::vector<Vec3>& v);

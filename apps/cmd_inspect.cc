@@ -1,6 +1,7 @@
 // rodmesh inspect ARCHIVE.h5: a human summary of a result archive.
 #include "apps/cli_common.hh"
 #include "apps/commands.hh"
+#include "solver/equilibrium.hh"  // kImperfectionRadiusChange
 #include "solver/newton.hh"  // kCriticalStiffnessRatio
 
 #include <algorithm>
@@ -78,6 +79,14 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
                         ratio);
         }
         std::printf("\n");
+      }
+      if (p.imperfectionSensitive >= 0) {
+        std::printf("          radii changed by %.2g%%: ", 100 * kImperfectionRadiusChange);
+        if (p.imperfectionGap) std::printf("equilibrium moves up to %.4f mm", *p.imperfectionGap * 1e3);
+        else std::printf("no equilibrium reached");
+        std::printf("%s\n", p.imperfectionSensitive == 1
+                                ? ": IMPERFECTION-SENSITIVE, a printed object may reach another equilibrium"
+                                : "");
       }
       for (Eigen::Index k = 0; k < p.criticalPoints.rows(); ++k)
         std::printf("          critical point at load factor %.4g (eigenvalue %.3g N/m), jumped %.4f mm\n",

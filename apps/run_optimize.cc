@@ -142,8 +142,14 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // only as built and loaded exactly: say so (optimizers run to such
   // points when a target lies beyond the branch's end).
   addUnloadedStiffness(*archiveModel, chosen.design, chosen.simulation);
-  for (const PoseResult& p : chosen.simulation.poses)
+  // A design whose pose reaches its equilibrium only with the radii exactly
+  // as designed (a bifurcation or limit point on its loading path within a
+  // radius change of 0.1%): say so too. Two loading paths per pose.
+  addImperfectionSensitivity(*archiveModel, chosen.design, resolve, chosen.simulation);
+  for (const PoseResult& p : chosen.simulation.poses) {
     if (p.atCriticalPoint()) chosen.note += (chosen.note.empty() ? "" : "; ") + criticalPointNote(p);
+    if (p.imperfectionSensitive()) chosen.note += (chosen.note.empty() ? "" : "; ") + imperfectionNote(p);
+  }
   if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
   Archive a = optimizeArchive(scene, *archiveModel, space, r, chosen, o.method);
   a.version = versionString();

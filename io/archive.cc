@@ -208,6 +208,9 @@ void writeContents(const Archive& a, hid_t file) {
         writeScalarAttr<double>(g, "smallest_eigenvalue", *p.smallestEigenvalue, H5T_NATIVE_DOUBLE);
       if (p.unloadedSmallestEigenvalue)
         writeScalarAttr<double>(g, "unloaded_smallest_eigenvalue", *p.unloadedSmallestEigenvalue, H5T_NATIVE_DOUBLE);
+      if (p.imperfectionSensitive >= 0)
+        writeScalarAttr<int>(g, "imperfection_sensitive", p.imperfectionSensitive, H5T_NATIVE_INT);
+      if (p.imperfectionGap) writeScalarAttr<double>(g, "imperfection_gap", *p.imperfectionGap, H5T_NATIVE_DOUBLE);
       if (p.criticalPoints.rows() > 0)
         writeDoubles(g, "critical_points", p.criticalPoints.data(), {(hsize_t)p.criticalPoints.rows(), 3});
       if (p.initialPositions.rows() > 0)

@@ -74,6 +74,13 @@ struct ArchivePose {
   // kCriticalStiffnessRatio (solver/newton.hh) of it is at a critical point.
   std::optional<double> unloadedSmallestEigenvalue;
   MatX3 criticalPoints;
+  // Extension (optimize's archived design): 1/0 whether the pose is
+  // imperfection-sensitive (-1 unknown, not written) and the largest vertex
+  // distance to the equilibria its loading path reaches with every radius
+  // changed by ±kImperfectionRadiusChange (m; not written when such a solve
+  // failed, which counts as sensitive).
+  int imperfectionSensitive = -1;
+  std::optional<double> imperfectionGap;
   // optimize only:
   MatX3 initialPositions;                // equilibrium under the initial design; empty: not written
   std::optional<double> equilibriumGap;  // m: largest |optimizer position - re-solved position|

@@ -555,6 +555,9 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
       p.stable = static_cast<int>(r.integerAttr(g, gp, "stable", false, 0, 1).value_or(-1));
       p.smallestEigenvalue = r.numberAttr(g, gp, "smallest_eigenvalue", false);
       p.unloadedSmallestEigenvalue = r.numberAttr(g, gp, "unloaded_smallest_eigenvalue", false);
+      p.imperfectionSensitive =
+          static_cast<int>(r.integerAttr(g, gp, "imperfection_sensitive", false, 0, 1).value_or(-1));
+      p.imperfectionGap = r.numberAttr(g, gp, "imperfection_gap", false);
       if (auto t = r.numbers(g, gp, "critical_points", false, {kAny, 3},
                              "K x 3 (load factor, smallest eigenvalue, jump per critical point)"))
         p.criticalPoints = rowsOf<3>(*t);
@@ -974,6 +977,7 @@ void validateArchive(const Archive& a, const Scene& scene, const std::string& pa
     if (p.smallestEigenvalue) finiteNumber(*p.smallestEigenvalue, g + " attribute smallest_eigenvalue");
     if (p.unloadedSmallestEigenvalue)
       finiteNumber(*p.unloadedSmallestEigenvalue, g + " attribute unloaded_smallest_eigenvalue");
+    if (p.imperfectionGap) finiteNumber(*p.imperfectionGap, g + " attribute imperfection_gap");
     finite(p.criticalPoints.data(), p.criticalPoints.rows(), 3, g + "/critical_points");
     finiteNumber(p.timeSeconds, g + " attribute time_s");
   }

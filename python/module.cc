@@ -329,6 +329,9 @@ py::dict archiveDict(const Archive& a) {
     q["unloaded_smallest_eigenvalue"] =
         p.unloadedSmallestEigenvalue ? py::object(py::float_(*p.unloadedSmallestEigenvalue)) : py::none();
     q["critical_points"] = py::cast(RowMat(p.criticalPoints));
+    q["imperfection_sensitive"] =
+        p.imperfectionSensitive >= 0 ? py::object(py::bool_(p.imperfectionSensitive == 1)) : py::none();
+    q["imperfection_gap"] = p.imperfectionGap ? py::object(py::float_(*p.imperfectionGap)) : py::none();
     poses.append(q);
   }
   d["poses"] = poses;

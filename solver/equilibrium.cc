@@ -6,6 +6,8 @@
 #include <Eigen/SparseCholesky>
 
 #include <cmath>
+#include <cstdint>
+#include <exception>
 #include <limits>
 #include <cstdio>
 
@@ -60,6 +62,58 @@ std::string unsupportedLoad(const Scene& scene, const RodNetwork& network, const
 bool PoseResult::atCriticalPoint() const {
   return stable.value_or(false) && smallestEigenvalue && unloadedSmallestEigenvalue &&
          *unloadedSmallestEigenvalue > 0 && *smallestEigenvalue <= kCriticalStiffnessRatio * *unloadedSmallestEigenvalue;
+}
+
+bool PoseResult::imperfectionSensitive() const {
+  return imperfectionGap && largestDisplacement && !(*imperfectionGap <= kImperfectionGapRatio * *largestDisplacement);
+}
+
+Design radiusImperfection(const Design& design, double change, int sign) {
+  Design d = design;
+  // splitmix64 of the radius index: signs without a correlation along rods.
+  for (std::size_t v = 0; v < d.radii.size(); ++v)
+    for (int k = 0; k < 2; ++k) {
+      std::uint64_t z = 2 * static_cast<std::uint64_t>(v) + static_cast<std::uint64_t>(k) + 0x9e3779b97f4a7c15ULL;
+      z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+      z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+      z ^= z >> 31;
+      const double s = (z & 1) ? 1.0 : -1.0;
+      d.radii[v][k] *= 1.0 + sign * change * s;
+    }
+  return d;
+}
+
+void addImperfectionSensitivity(const SceneModel& model, const Design& design, const NewtonOptions& options,
+                                SimulationResult& sim) {
+  const Design plus = radiusImperfection(design, kImperfectionRadiusChange, 1);
+  const Design minus = radiusImperfection(design, kImperfectionRadiusChange, -1);
+  for (int p = 0; p < model.numPoses() && p < static_cast<int>(sim.poses.size()); ++p) {
+    PoseResult& r = sim.poses[p];
+    if (!r.report.converged()) continue;
+    const PoseSystem& sys = model.pose(p);
+    double largest = 0.0;
+    for (std::size_t v = 0; v < r.positions.size() && v < design.restPositions.size(); ++v)
+      largest = std::max(largest, (r.positions[v] - design.restPositions[v]).norm());
+    double gap = 0.0;
+    for (const Design* d : {&plus, &minus}) {
+      PoseState state = sys.restState(*d);
+      bool solved = false;
+      try {
+        solved = solveEquilibrium(sys, *d, state, options).converged() && state.loadFactor == 1.0;
+      } catch (const std::exception&) {
+        solved = false;
+      }
+      if (!solved) {
+        gap = std::numeric_limits<double>::infinity();
+        break;
+      }
+      const std::vector<Vec3> x = sys.positions(state, *d);
+      for (std::size_t v = 0; v < x.size() && v < r.positions.size(); ++v)
+        gap = std::max(gap, (x[v] - r.positions[v]).norm());
+    }
+    r.imperfectionGap = gap;
+    r.largestDisplacement = largest;
+  }
 }
 
 namespace {

@@ -42,7 +42,32 @@ struct PoseResult {
   // point, where a little more load or a small imperfection of the printed
   // object makes it snap or buckle to another equilibrium.
   bool atCriticalPoint() const;
+  // Imperfection sensitivity (addImperfectionSensitivity): the largest vertex
+  // distance between this equilibrium and the ones the loading path reaches
+  // with every radius changed by ±kImperfectionRadiusChange (m; infinity
+  // when such a solve fails), and the largest vertex displacement from the
+  // rest shape it is judged against (m).
+  std::optional<double> imperfectionGap;
+  std::optional<double> largestDisplacement;
+  // The gap exceeds kImperfectionGapRatio of the largest displacement: a
+  // printed object, whose radii are never exact, may well reach another
+  // equilibrium (the pose sits next to a bifurcation or limit point passed
+  // on its loading path, or at one).
+  bool imperfectionSensitive() const;
 };
+
+// The radius change of the imperfection test and the gap, relative to the
+// largest displacement, above which a pose is called sensitive. A smooth
+// response to relative radius changes e moves a vertex by about 4 e (bending
+// stiffness goes as r^4) of its displacement; the ratio allows 25 times that
+// before a response is called a jump.
+constexpr double kImperfectionRadiusChange = 1e-3;
+constexpr double kImperfectionGapRatio = 0.1;
+
+// `design` with every radius scaled by 1 + sign * change * s, s = ±1 a fixed
+// pseudo-random pattern over the vertices and the two radii (the same for
+// every call): the imperfection of addImperfectionSensitivity.
+Design radiusImperfection(const Design& design, double change, int sign);
 
 struct SimulationResult {
   std::vector<PoseResult> poses;
@@ -62,6 +87,15 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
 // Sets PoseResult::unloadedSmallestEigenvalue of every pose of `sim` (solved
 // under `design`) that has a stability judgement and lacks it.
 void addUnloadedStiffness(const SceneModel& model, const Design& design, SimulationResult& sim);
+
+// Sets PoseResult::imperfectionGap and largestDisplacement of every pose of
+// `sim` (solved under `design`) that converged: each pose solved along its
+// loading path under radiusImperfection(design, kImperfectionRadiusChange,
+// ±1). Two loading paths per pose; for reported designs (`optimize`'s
+// archive), which optimizers tend to push against the edge of the region
+// whose loading paths reach the designed branch.
+void addImperfectionSensitivity(const SceneModel& model, const Design& design, const NewtonOptions& options,
+                                SimulationResult& sim);
 
 // Empty if the pose's loads can be in equilibrium; otherwise why not (no
 // held vertex and a non-zero net force).

@@ -118,8 +118,11 @@ class PoseResult:
     critical_points (K x 3: load
     factor, smallest eigenvalue N/m, jump m, per critical point the loading path
     passed), out_of_plane_stable (planar solves); optimize only:
-    initial_positions (the equilibrium under the initial design) and
-    equilibrium_gap (m)."""
+    initial_positions (the equilibrium under the initial design),
+    equilibrium_gap (m), imperfection_sensitive (with every radius changed by
+    0.1% the loading path reaches an equilibrium more than a tenth of the
+    largest displacement away, or none; None when not judged) and
+    imperfection_gap (m, that distance; None when such a solve failed)."""
 
     def __init__(self, d):
         self.__dict__.update(d)

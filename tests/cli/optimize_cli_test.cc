@@ -166,6 +166,14 @@ void OptimizeCli::checkRecovery(const std::string& args, const std::string& meth
     EXPECT_LT((s.poses[p].positions - a.poses[p].positions).cwiseAbs().maxCoeff(), 1e-8) << a.poses[p].name;
     ASSERT_TRUE(a.poses[p].equilibriumGap.has_value());
     EXPECT_LT(*a.poses[p].equilibriumGap, 1e-6);
+    // The imperfection test: radii changed by 0.1% move this design's
+    // equilibria smoothly, by far less than a tenth of their displacement,
+    // but not by nothing.
+    EXPECT_EQ(a.poses[p].imperfectionSensitive, 0) << a.poses[p].name;
+    ASSERT_TRUE(a.poses[p].imperfectionGap.has_value()) << a.poses[p].name;
+    EXPECT_GT(*a.poses[p].imperfectionGap, 0.0);
+    const double largest = (a.poses[p].positions - a.restPositions).rowwise().norm().maxCoeff();
+    EXPECT_LT(*a.poses[p].imperfectionGap, 0.01 * largest) << a.poses[p].name;
   }
   EXPECT_EQ(rootStringAttribute(path("out.h5"), "archived_design"), "final");
 }

@@ -415,6 +415,15 @@ void archDesignedToItsLimitPoint(HardCase& t, const std::string& method) {
   EXPECT_NE(a.optimize->message.find("pose '" + s.poses[0].name + "' is at a critical point"), std::string::npos)
       << a.optimize->message;
   EXPECT_GT(p.positions(20, 2), 0.0) << "up, on the branch it was designed on";
+  // At its limit point the arch is imperfection-sensitive: radii changed by
+  // 0.1% one way snap it through (a jump of more than the rise), and the
+  // archive and the message say so.
+  EXPECT_EQ(p.imperfectionSensitive, 1);
+  if (p.imperfectionGap) {
+    EXPECT_GT(*p.imperfectionGap, 0.05);
+  }
+  EXPECT_NE(a.optimize->message.find("pose '" + s.poses[0].name + "' is imperfection-sensitive"), std::string::npos)
+      << a.optimize->message;
 
   Scene check = s;
   check.design = DesignSpec{};

@@ -179,6 +179,12 @@ def test_optimize_matches_the_cli_archive(small_cli, tmp_path):
     assert r.design.control_points.radii.shape[1] == 2
     assert len(r.history["iteration"]) == len(r.history["rms_error"]) >= 2
     assert r.optimize_summary["method"] == "sand"
+    # The archived design's imperfection test, in Python as in the archive:
+    # radii 0.1% off move these equilibria smoothly.
+    for name, p in r.poses.items():
+        q = small_cli.poses[name]
+        assert p.imperfection_sensitive is False and q.imperfection_sensitive is False
+        assert 0 < p.imperfection_gap == q.imperfection_gap
     saved = tmp_path / "py.h5"
     r.save(saved)
     assert_same_result(rodmesh.load_archive(saved), small_cli)
