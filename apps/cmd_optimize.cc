@@ -188,6 +188,10 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                   "objective, every probe re-solving every pose)")
       ->check(CLI::IsMember({"exact", "fd", "fd-resolve"}));
   app->add_option("--ipopt", opts->ipopt, "KEY=VALUE option passed to Ipopt (--method sand; repeatable)");
+  app->add_flag("--no-imperfection-back-off", opts->noImperfectionBackOff,
+                "keep the final design even when a pose is imperfection-sensitive (its loading path reaches another "
+                "equilibrium with the radii 0.1% off; by default the run backs off towards the initial design to "
+                "the nearest design tested that is not)");
 
   Command c;
   c.app = app;

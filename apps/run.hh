@@ -58,6 +58,7 @@ struct OptimizeOptions {
   std::string schedule;  // default: levels for sand, paper for reduced (docs/optimization.md)
   std::string designDerivatives;  // exact (default), fd or fd-resolve; --method reduced only
   std::vector<std::string> ipopt;
+  bool noImperfectionBackOff = false;  // --no-imperfection-back-off (sets optimizer.imperfectionBackOff)
   DesignOptimizerOptions optimizer;
 };
 

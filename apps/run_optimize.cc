@@ -30,6 +30,7 @@ bool sandAvailable() {
 }  // namespace
 
 void checkOptimizeOptions(OptimizeOptions& o) {
+  o.optimizer.imperfectionBackOff = !o.noImperfectionBackOff;
   if (o.method.empty()) o.method = sandAvailable() ? "sand" : "reduced";
   if (o.method == "sand" && !sandAvailable())
     throw InputError("optimize: --method sand: the Ipopt optimizer is not part of this build; use --method reduced");
@@ -145,7 +146,16 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // A design whose pose reaches its equilibrium only with the radii exactly
   // as designed (a bifurcation or limit point on its loading path within a
   // radius change of 0.1%): say so too. Two loading paths per pose.
-  addImperfectionSensitivity(*archiveModel, chosen.design, resolve, chosen.simulation);
+  // The optimizer's own test of its final design (DesignOptimizerOptions::
+  // imperfectionBackOff) is reused when that design is archived as solved.
+  const SimulationResult& checked = r.imperfectionCheck;
+  const bool reuse = !chosen.fallback && !chosen.outOfPlane && sameControls(chosen.controls, r.controls) &&
+                     checked.poses.size() == chosen.simulation.poses.size();
+  for (std::size_t p = 0; reuse && p < checked.poses.size(); ++p) {
+    chosen.simulation.poses[p].imperfectionGap = checked.poses[p].imperfectionGap;
+    chosen.simulation.poses[p].largestDisplacement = checked.poses[p].largestDisplacement;
+  }
+  if (!reuse) addImperfectionSensitivity(*archiveModel, chosen.design, resolve, chosen.simulation);
   for (const PoseResult& p : chosen.simulation.poses) {
     if (p.atCriticalPoint()) chosen.note += (chosen.note.empty() ? "" : "; ") + criticalPointNote(p);
     if (p.imperfectionSensitive()) chosen.note += (chosen.note.empty() ? "" : "; ") + imperfectionNote(p);

@@ -160,7 +160,9 @@ cli::SimulateOptions simulateOptions(const py::dict& kw) {
 }
 
 cli::OptimizeOptions optimizeOptions(const py::dict& kw) {
-  rejectUnknown(kw, {"method", "max_iter", "time_limit", "tol", "schedule", "threads", "design_derivatives", "ipopt"},
+  rejectUnknown(kw,
+                {"method", "max_iter", "time_limit", "tol", "schedule", "threads", "design_derivatives", "ipopt",
+                 "no_imperfection_back_off"},
                 "optimize");
   checkWhole(kw, "max_iter", 0, cli::kMaxOptimizeIterations);
   checkReal(kw, "time_limit", cli::kTimeLimitRange);
@@ -184,6 +186,7 @@ cli::OptimizeOptions optimizeOptions(const py::dict& kw) {
   if (has("schedule")) o.schedule = member("schedule", {"paper", "joint", "levels", "multilevel"});
   if (has("threads")) o.optimizer.threads = kw["threads"].cast<int>();
   if (has("design_derivatives")) o.designDerivatives = member("design_derivatives", {"exact", "fd", "fd-resolve"});
+  if (has("no_imperfection_back_off")) o.noImperfectionBackOff = kw["no_imperfection_back_off"].cast<bool>();
   if (has("ipopt")) {
     py::object ip = kw["ipopt"];
     if (py::isinstance<py::dict>(ip)) {

@@ -1,5 +1,6 @@
 #include "solver/design_driver.hh"
 
+#include "solver/equilibrium.hh"
 #include "solver/format.hh"
 #include "solver/parallel.hh"
 
@@ -148,6 +149,13 @@ class DesignDriver {
   // with those equilibria as the optimizer's. Returns its label.
   std::string adoptBestOnPath();
   double structureSize() const;
+  // When a pose of the best design is imperfection-sensitive: the designs
+  // t of the way from the initial design to it, t = 0.999, 0.99, 0.9, 0.5,
+  // each solved along its loading path and tested; the first that is not
+  // sensitive and does better than the initial design becomes the result,
+  // with its loading path's equilibria. Returns what the message says (empty:
+  // nothing sensitive, or nothing done).
+  std::string backOffFromImperfection();
   // Newton from `states` under `d` (timed as model evaluations), then f and
   // the RMS there; false when a pose fails or f is not finite.
   bool solveAndScore(const Design& d, std::vector<PoseState>& states, double& f, double& rms);
@@ -208,6 +216,64 @@ double PhaseContext::elapsed() const { return driver_.elapsed(); }
 double PhaseContext::remainingTime() const { return driver_.remainingTime(); }
 double PhaseContext::initialObjective() const { return driver_.initialObjective(); }
 const DesignOptimizerOptions& PhaseContext::options() const { return driver_.options(); }
+
+std::string DesignDriver::backOffFromImperfection() {
+  // Which poses are sensitive, and the largest gap, under `d`; false when
+  // a pose does not solve from rest (such designs are the archive's
+  // business).
+  auto sensitive = [&](const Design& d, SimulationResult& sim, std::string& pose, double& gap) {
+    const auto te = Clock::now();
+    sim = simulateAll(model_, d, opt_.newton);
+    bool any = false;
+    if (sim.allConverged) {
+      addImperfectionSensitivity(model_, d, opt_.newton, sim);
+      for (const PoseResult& p : sim.poses)
+        if (p.imperfectionSensitive() && !any) {
+          any = true;
+          pose = p.name;
+          gap = p.imperfectionGap.value_or(0.0);
+        }
+    }
+    res_.evaluationSeconds += since(te);
+    return any;
+  };
+  SimulationResult sim;
+  std::string pose;
+  double gap = 0.0;
+  const bool base = sensitive(res_.design, sim, pose, gap);
+  if (interrupted()) return "";  // solves cut short prove nothing
+  if (sim.allConverged) res_.imperfectionCheck = sim;
+  if (!base || !sim.allConverged) return "";
+  const ControlValues initial = space_.initialControls(scene_);
+  std::string gapText = std::isfinite(gap) ? "reaches an equilibrium " + millimetres(gap) + " away"
+                                           : "reaches no equilibrium";
+  const std::string what = "pose '" + pose + "' of the final design is imperfection-sensitive (with its radii 0.1% " +
+                           "off, its loading path " + gapText + ")";
+  for (const double t : {0.999, 0.99, 0.9, 0.5}) {
+    if (interrupted() || timeUp()) break;
+    ControlValues c = initial;
+    c.radii = initial.radii + t * (res_.controls.radii - initial.radii);
+    c.displacement = initial.displacement + t * (res_.controls.displacement - initial.displacement);
+    const Design d = space_.toDesign(c);
+    SimulationResult s;
+    std::string p;
+    double g = 0.0;
+    if (sensitive(d, s, p, g) || !s.allConverged || interrupted()) continue;
+    std::vector<PoseState> states;
+    for (const PoseResult& r : s.poses) states.push_back(r.state);
+    double f = 0.0;
+    const double rms = objective_.rms(objectiveOfStates(model_, objective_, d, states, f));
+    if (!(f < res_.initialObjective)) break;  // farther back is no better
+    const double before = res_.rms;
+    adopt(c, d, f, rms, states, states);
+    res_.imperfectionCheck = std::move(s);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%g", t);
+    return what + ": the result is the design " + buf + " of the way from the initial design to it, the nearest " +
+           "tested that is not (RMS " + millimetres(rms) + " as loaded from rest, against " + millimetres(before) + ")";
+  }
+  return what + "; no design between it and the initial design that was tested is better and not sensitive";
+}
 
 double DesignDriver::structureSize() const {
   if (scene_.vertices.empty()) return 0.0;
@@ -783,6 +849,10 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
       adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);
       if (stop == Outcome::Converged) stop = Outcome::Stalled;
     }
+  }
+  if (opt_.imperfectionBackOff && !interrupted() && !timeUp()) {
+    const std::string backOff = backOffFromImperfection();
+    if (!backOff.empty()) message += "; " + backOff;
   }
   for (const std::string& n : notes) message += "; " + n;
   res_.iterations = iterations;

@@ -137,6 +137,13 @@ struct DesignOptimizerOptions {
   // (solver/design_monitor.hh): the run holds a design that re-solves from
   // rest at every moment, and ends with the better of it and its own.
   bool confirmDesigns = true;
+  // When the run's final design is imperfection-sensitive
+  // (solver/equilibrium.hh, addImperfectionSensitivity: a pose's loading
+  // path reaches another equilibrium with its radii 0.1% off), back off
+  // towards the initial design to the nearest design tested that is not and
+  // does better than the initial one (docs/optimization.md, "Imperfection
+  // back-off").
+  bool imperfectionBackOff = true;
   // Called on the monitor's thread with every newly confirmed best design.
   std::function<void(const ConfirmedDesign&)> onConfirmed;
   std::string isValid() const;
@@ -183,6 +190,10 @@ struct DesignOptimizerResult : SolveSummary {
   // included (solver/design_fallback.hh): the reduced method's accepted
   // iterates and phase ends, SAND's kept phase designs.
   std::vector<FallbackDesign> fallbacks;
+  // The final design's imperfection test (imperfectionBackOff): its poses
+  // solved from rest with imperfectionGap and largestDisplacement set, for
+  // the archive to reuse when it archives that design; empty when not run.
+  SimulationResult imperfectionCheck;
 };
 
 // The phases of a schedule (paper: radii level by level, then rounds of rest
