@@ -155,7 +155,10 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     chosen.simulation.poses[p].imperfectionGap = checked.poses[p].imperfectionGap;
     chosen.simulation.poses[p].largestDisplacement = checked.poses[p].largestDisplacement;
   }
-  if (!reuse) addImperfectionSensitivity(*archiveModel, chosen.design, resolve, chosen.simulation);
+  // A run stopped by its time limit or by SIGINT/SIGTERM is archived without
+  // the test (two loading paths per pose past the limit the user set).
+  const bool cutShort = r.outcome == Outcome::TimeLimit || r.outcome == Outcome::Interrupted;
+  if (!reuse && !cutShort) addImperfectionSensitivity(*archiveModel, chosen.design, resolve, chosen.simulation);
   for (const PoseResult& p : chosen.simulation.poses) {
     if (p.atCriticalPoint()) chosen.note += (chosen.note.empty() ? "" : "; ") + criticalPointNote(p);
     if (p.imperfectionSensitive()) chosen.note += (chosen.note.empty() ? "" : "; ") + imperfectionNote(p);

@@ -262,7 +262,12 @@ TEST_F(OptimizeCli, TimeLimitStopsWithAValidArchiveOfTheBestDesign) {
   // The message names the user's limit, not what was left of it in a phase.
   EXPECT_EQ(a.optimize->message, "time limit reached");
   EXPECT_LE(rms(a.poses, false), rms(a.poses, true));
-  for (const ArchivePose& p : a.poses) EXPECT_LT(p.residualNorm, 1e-6) << p.name;
+  for (const ArchivePose& p : a.poses) {
+    EXPECT_LT(p.residualNorm, 1e-6) << p.name;
+    // No imperfection test past the user's limit.
+    EXPECT_EQ(p.imperfectionSensitive, -1) << p.name;
+    EXPECT_FALSE(p.imperfectionGap.has_value()) << p.name;
+  }
 }
 
 // The paper's recipe (dF/dp by finite differences) drives the same
