@@ -3,6 +3,7 @@
 #include "model/stiffness.hh"
 #include "solver/modified_ldlt.hh"
 
+#include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
 
 #include <cmath>
@@ -87,6 +88,11 @@ void addImperfectionSensitivity(const SceneModel& model, const Design& design, c
                                 SimulationResult& sim) {
   const Design plus = radiusImperfection(design, kImperfectionRadiusChange, 1);
   const Design minus = radiusImperfection(design, kImperfectionRadiusChange, -1);
+  // A pose that hardly moves (nothing applied) is judged against 1e-6 of
+  // the structure's size, not against its round-off.
+  Eigen::AlignedBox3d box;
+  for (const Vec3& x : design.restPositions) box.extend(x);
+  const double floor = design.restPositions.empty() ? 0.0 : 1e-6 * box.diagonal().norm();
   for (int p = 0; p < model.numPoses() && p < static_cast<int>(sim.poses.size()); ++p) {
     PoseResult& r = sim.poses[p];
     if (!r.report.converged()) continue;
@@ -112,7 +118,7 @@ void addImperfectionSensitivity(const SceneModel& model, const Design& design, c
         gap = std::max(gap, (x[v] - r.positions[v]).norm());
     }
     r.imperfectionGap = gap;
-    r.largestDisplacement = largest;
+    r.largestDisplacement = std::max(largest, floor);
   }
 }
 

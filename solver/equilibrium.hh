@@ -46,7 +46,8 @@ struct PoseResult {
   // distance between this equilibrium and the ones the loading path reaches
   // with every radius changed by ±kImperfectionRadiusChange (m; infinity
   // when such a solve fails), and the largest vertex displacement from the
-  // rest shape it is judged against (m).
+  // rest shape it is judged against (m; at least 1e-6 of the structure's
+  // size, the diagonal of the rest shape's bounding box).
   std::optional<double> imperfectionGap;
   std::optional<double> largestDisplacement;
   // The gap exceeds kImperfectionGapRatio of the largest displacement: a

@@ -53,6 +53,22 @@ TEST(ImperfectionSensitivity, ACantileverRespondsSmoothly) {
   EXPECT_FALSE(p.imperfectionSensitive());
 }
 
+TEST(ImperfectionSensitivity, APoseWithNothingAppliedIsJudgedAgainstTheStructuresSize) {
+  Scene s = testutil::cantilever(30, 0.3, 0.002, 0.002, Vec3(0, 0, 1));
+  const SceneModel model(s);
+  const Design d = Design::fromScene(s);
+  SimulationResult sim = simulateAll(model, d, NewtonOptions{});
+  ASSERT_TRUE(sim.allConverged);
+  addImperfectionSensitivity(model, d, NewtonOptions{}, sim);
+  const PoseResult& p = sim.poses[0];
+  ASSERT_TRUE(p.imperfectionGap && p.largestDisplacement);
+  // The rest state, whatever the radii: no motion, judged against 1e-6 of
+  // the 0.3 m rod rather than against nothing.
+  EXPECT_LT(*p.imperfectionGap, 1e-12);
+  EXPECT_NEAR(*p.largestDisplacement, 1e-6 * 0.3, 1e-12);
+  EXPECT_FALSE(p.imperfectionSensitive());
+}
+
 TEST(ImperfectionSensitivity, AnArchJustBelowItsLimitLoadSnapsUnderIt) {
   Scene s = testutil::invertibleArch();
   s.design = DesignSpec{};
