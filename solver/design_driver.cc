@@ -218,9 +218,10 @@ double PhaseContext::initialObjective() const { return driver_.initialObjective(
 const DesignOptimizerOptions& PhaseContext::options() const { return driver_.options(); }
 
 std::string DesignDriver::backOffFromImperfection() {
-  // Which poses are sensitive, and the largest gap, under `d`; false when
-  // a pose does not solve from rest (such designs are the archive's
-  // business).
+  // `d` solved from rest into `sim` and tested: true when a pose is
+  // sensitive (`pose`, `gap`: the first such). A design with a pose that
+  // does not solve from rest is not tested (sim.allConverged false; such
+  // designs are the archive's business).
   auto sensitive = [&](const Design& d, SimulationResult& sim, std::string& pose, double& gap) {
     const auto te = Clock::now();
     sim = simulateAll(model_, d, opt_.newton);
@@ -245,7 +246,7 @@ std::string DesignDriver::backOffFromImperfection() {
   if (sim.allConverged) res_.imperfectionCheck = sim;
   if (!base || !sim.allConverged) return "";
   const ControlValues initial = space_.initialControls(scene_);
-  std::string gapText = std::isfinite(gap) ? "reaches an equilibrium " + millimetres(gap) + " away"
+  const std::string gapText = std::isfinite(gap) ? "reaches an equilibrium " + millimetres(gap) + " away"
                                            : "reaches no equilibrium";
   const std::string what = "pose '" + pose + "' of the final design is imperfection-sensitive (with its radii 0.1% " +
                            "off, its loading path " + gapText + ")";
@@ -593,11 +594,6 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   bool seededRetry = false;    // the last phase was run again from a seeded rest shape
   bool onPathRetry = false;    // the last phase was run again on the loading path (PhaseTask::onPath)
   int phaseIndex = 0;
-  // A run that went on from a loading path's equilibria and is about to end
-  // worse, as loaded from rest, than a design it held before (`why`): that
-  // design is adopted and the run goes on with a phase run on the loading
-  // path (PhaseTask::onPath), the last resort also used when the last phase
-  // ends off the path twice. False when there is no such design.
   // The retry of a diverged phase (or of one whose optimum no stable
   // equilibrium realizes) starts from the best design so far; a design
   // confirmed from rest during the run (the monitor's, waited for) or found
@@ -614,6 +610,11 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     return " from " + best.label + " (RMS " + millimetres(best.rms) + " as loaded from rest, against " +
            millimetres(before) + " for the best design the phase kept)";
   };
+  // A run that went on from a loading path's equilibria and is about to end
+  // worse, as loaded from rest, than a design it held before (`why`): that
+  // design is adopted and the run goes on with a phase run on the loading
+  // path (PhaseTask::onPath), the last resort also used when the last phase
+  // ends off the path twice. False when there is no such design.
   auto onPathFromBest = [&](const std::string& why) {
     if (!wentOnFromPath_ || onPathRetry || !solver.solvesOnPath() || interrupted() || timeUp()) return false;
     const OnPathDesign best = bestKnownOnPath();
