@@ -186,6 +186,11 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
     if (!std::isfinite(floorForce)) floorForce = 0.0;
     rep.roundoffFloor = floorForce;
 
+    if (opt.stopOutsideNewtonRegion && it > 0 && !(rep.residualHistory[it] < rep.residualHistory[it - 1]) && !small) {
+      rep.outcome = Outcome::Stalled;
+      rep.message = "left Newton's region of convergence (the force residual rose)";
+      break;
+    }
     if (opt.stopAtNegative && negative > 0) {
       // A load step of the loading path that meets negative curvature is too
       // long, or crosses a critical point: the caller shortens it.
@@ -382,7 +387,7 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
     // accepted instead.
     double alpha = 1.0;
     const double slope = g.dot(d);
-    bool accepted = false, anyFinite = false;
+    bool accepted = false, anyFinite = false, outsideRegion = false;
     double Etrial = 0.0;
     for (int b = 0; b <= opt.maxBacktracks; ++b) {
       uTrial = u + alpha * d;
@@ -400,8 +405,17 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
         }
         if (accepted) break;
       }
+      if (opt.stopOutsideNewtonRegion) {
+        outsideRegion = true;
+        break;
+      }
       alpha *= 0.5;
       rep.backtracks++;
+    }
+    if (outsideRegion) {
+      rep.outcome = Outcome::Stalled;
+      rep.message = "left Newton's region of convergence (the full Newton step did not lower the energy enough)";
+      break;
     }
     if (accepted) {
       ta = Clock::now();

@@ -63,6 +63,11 @@ struct MinimizerSettings {
   bool trustRegion = true;               // limit steps to a trust radius on the vertex displacements
   bool reanchor = true;                  // re-anchor charts of edges that turned far (solver-internal coordinates)
   bool stopAtNegative = false;           // stop (Stalled, "met negative curvature") at the first negative pivot
+  // Stop (Stalled, "left Newton's region of convergence") at the first
+  // iteration whose force residual is not below the previous one's, or
+  // whose line search shortens the Newton step: a corrector from a predicted
+  // state that is not converging quadratically (the caller shortens the step).
+  bool stopOutsideNewtonRegion = false;
   Eigen::VectorXd* firstStep = nullptr;  // receives the first unmodified Newton step (the tangent prediction)
   const InertiaTerm* inertia = nullptr;  // the time step's inertia term; null for statics
   std::optional<std::chrono::steady_clock::time_point> deadline;  // then TimeLimit

@@ -37,7 +37,8 @@ double pseudoSign(std::uint64_t i) {
 // re-anchored); the state's unknowns and charts are updated in place.
 NewtonReport newtonSolveUntil(const PoseSystem& system, const Design& design, PoseState& state, double scale,
                               double tolerance, const NewtonOptions& opt, Clock::time_point deadline,
-                              bool hasDeadline, Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false) {
+                              bool hasDeadline, Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false,
+                              bool stopOutsideNewtonRegion = false) {
   MinimizerSettings s;
   s.scale = scale;
   s.tolerance = tolerance;
@@ -48,6 +49,7 @@ NewtonReport newtonSolveUntil(const PoseSystem& system, const Design& design, Po
   s.maxShift = opt.maxShift;
   s.maxEscapes = opt.maxEscapes;
   s.stopAtNegative = stopAtNegative;
+  s.stopOutsideNewtonRegion = stopOutsideNewtonRegion;
   s.firstStep = firstStep;
   if (hasDeadline) s.deadline = deadline;
   s.cancel = opt.cancel;
@@ -179,10 +181,11 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   Charts charts = state.charts;
   // Newton from uIn (updated) at load factor lf in `charts` (updated).
   auto solveAt = [&](double lf, Eigen::VectorXd& uIn, double tol, const NewtonOptions& o,
-                     Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false) {
+                     Eigen::VectorXd* firstStep = nullptr, bool stopAtNegative = false,
+                     bool stopOutsideNewtonRegion = false) {
     PoseState s{std::move(uIn), std::move(charts), lf, state.internal};
     NewtonReport rs = newtonSolveUntil(system, design, s, scale, tol, o, deadline, hasDeadline, firstStep,
-                                       stopAtNegative);
+                                       stopAtNegative, stopOutsideNewtonRegion);
     uIn = std::move(s.u);
     charts = std::move(s.charts);
     return rs;
@@ -298,9 +301,78 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     return ratio <= opt.pathDeviation ? ratio : -1.0;
   };
 
+  // The tangent of the loading path at the equilibrium `from` (load factor
+  // lamFrom): du/dlam = -K^-1 dF/dlam, with K the stiffness there (positive
+  // definite: the equilibrium is stable) and dF/dlam the rate at which the
+  // load factor changes the forces at fixed free unknowns (applied loads,
+  // and the held vertices moving towards their prescribed positions), by a
+  // central difference in the load factor (F is smooth in it; the step
+  // keeps round-off and truncation far below the forces). Empty when `from`
+  // is not an equilibrium within the intermediate steps' tolerance or K is
+  // not positive definite: the caller then predicts with Newton's first
+  // step instead.
+  //
+  // Why not Newton's first step from `from` at the new load: its stiffness
+  // is that of a state whose held vertices have moved and whose free ones
+  // have not. Edges next to a moved handle are stretched there by the
+  // square of its sideways motion over their length, which the path never
+  // sees (the free vertices follow), so the step is far from the path's
+  // direction and, where edges are compressed, meets negative curvature at
+  // once: a sheet whose handle is lifted by centimetres had its first step
+  // rejected down to 2^-9 of the load and doubled back to the full load in
+  // nine more steps.
+  const double pathTol = std::min(std::max(opt.tolerance, 1e-6), 1e-4);
+  auto pathTangent = [&](const Eigen::VectorXd& from, const Charts& fromCharts, double lamFrom) -> Eigen::VectorXd {
+    Eigen::VectorXd g, gp, gm;
+    Eigen::SparseMatrix<double> K;
+    system.evaluate(PoseState{from, fromCharts, lamFrom, state.internal}, design, &g, &K);
+    if (!(system.forceResidual(g).norm() <= pathTol * scale)) return {};
+    const double h = 1e-6;
+    system.evaluate(PoseState{from, fromCharts, lamFrom + h, state.internal}, design, &gp, nullptr);
+    system.evaluate(PoseState{from, fromCharts, lamFrom - h, state.internal}, design, &gm, nullptr);
+    const Eigen::VectorXd rate = (gp - gm) / (2 * h);
+    if (!rate.allFinite()) return {};
+    ModifiedLdlt ldlt;
+    if (!ldlt.factorize(K) || ldlt.modified()) return {};
+    Eigen::VectorXd du = -ldlt.solve(rate);
+    if (!du.allFinite()) return {};
+    return du;
+  };
+
+  // A step predicted by the tangent is only as long as Newton's corrector
+  // can tell its branch: its corrector stops (and the step is shortened)
+  // at the first iteration whose full Newton step does not lower the energy
+  // enough or whose force residual rises (stopOutsideNewtonRegion,
+  // solver/minimizer.hh). A corrector that wanders may settle on another
+  // branch well within pathDeviation of a long prediction: a sheet whose
+  // handle is lifted, twisted and pushed, predicted over its whole load,
+  // landed on the buckled branch 20 mm RMS from its loading path's,
+  // deviating by 0.38 of the prediction.
+  // Only where held vertices are prescribed away from rest: under applied
+  // loads alone the stiffness at fixed free unknowns does not depend on the
+  // load factor, so Newton's first step is this tangent already.
+  bool heldMove = false;
+  if (path && !warm) {
+    const std::vector<Vec3> x0 = system.positions(PoseState{rest.u, rest.charts, 0.0, {}}, design);
+    const std::vector<Vec3> x1 = system.positions(PoseState{rest.u, rest.charts, 1.0, {}}, design);
+    for (std::size_t v = 0; v < x0.size() && !heldMove; ++v)
+      heldMove = system.isHeld(static_cast<int>(v)) && x0[v] != x1[v];
+  }
   Eigen::VectorXd uTry = u, tangent;
   const bool fullFromState = !path || warm;
-  NewtonReport r = solveAt(1.0, uTry, opt.tolerance, fullFromState ? opt : stepOpt, &tangent, path && !warm);
+  bool tangentPredicted = false;
+  if (path && !warm && heldMove) {
+    tangent = pathTangent(u, charts, state.loadFactor);
+    tangentPredicted = tangent.size() == u.size();
+    if (tangent.size() == u.size()) {
+      tangent *= 1.0 - state.loadFactor;
+      uTry += tangent;
+    } else {
+      tangent.resize(0);
+    }
+  }
+  NewtonReport r = solveAt(1.0, uTry, opt.tolerance, fullFromState ? opt : stepOpt,
+                           tangent.size() > 0 ? nullptr : &tangent, path && !warm, tangentPredicted);
   merge(r);
   for (int resume = 0; fullFromState && !r.converged() && r.outcome == Outcome::MaxIterations && r.progressing &&
                        resume < opt.maxLoadHalvings;
