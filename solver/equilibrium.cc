@@ -155,8 +155,13 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
     }
     r.dofs = state.u;
     r.state = state;
-    // Positions and material twists as reported at the full load.
-    const PoseState reported{state.u, state.charts, 1.0, state.internal};
+    // Positions and material twists of the returned state at its own load
+    // factor (the full load when converged; a pose that stopped short is
+    // archived as the equilibrium it reached, its held vertices where they
+    // were then, not at their final positions with the free ones left
+    // behind, where an edge can even point back along its rest tangent and
+    // its twist is undefined).
+    const PoseState reported{state.u, state.charts, state.loadFactor, state.internal};
     r.positions = sys.positions(reported, design);
     r.twist = sys.materialTwists(reported, design);
     const auto& target = model.scene().poses[p].target;

@@ -176,7 +176,9 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Ei
 
 // The load scale of a pose (see above), in newtons (+inf when the loads
 // overflow double precision): the force residual of the design's rest state
-// under the full load.
+// under the full load (where that is not finite, e.g. a held vertex
+// prescribed past its neighbour, the residual at the largest load factor
+// 2^-k where it is, over 2^-k).
 double loadScale(const PoseSystem& system, const Design& design);
 
 // Stability of a state (at its load factor and charts):

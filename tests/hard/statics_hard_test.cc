@@ -768,6 +768,60 @@ TEST_F(HardStatics, LoadsBeyondDoublePrecisionFail) {
   }
 }
 
+// A comb: three rods of four 7.5 mm edges hang from a top rail (two rods
+// meeting them at their top ends), their bottom ends clamped; the whole rail
+// is held and pushed 10 mm down, past the first vertex of every hanging rod.
+// At the full load with the free vertices still at rest, those top edges
+// point back along their rest tangents, where the frame transport is
+// undefined: the load scale (the rest state's residual under the full load)
+// came out NaN, and the pose failed at once as "loads that overflow double
+// precision", archiving a NaN twist and an infinite residual. Every state
+// of the loading path is well defined (the hanging rods bow as the rail
+// comes down): in plane and in 3D (gravity across the plane), it converges.
+TEST_F(HardStatics, HeldRailPushedPastItsNeighboursIsLoadedAlongItsPath) {
+  for (const bool planar : {true, false}) {
+    SCOPED_TRACE(planar ? "in plane" : "3D");
+    Scene s;
+    s.sourcePath = "<hard case>";
+    s.material = kIssueMaterial;
+    const double edge = 0.0075, top = 0.02, drop = 0.01;
+    std::vector<int> tops;
+    for (int c = 0; c < 3; ++c) {
+      Rod hang;
+      for (int k = 0; k <= 4; ++k) {
+        hang.vertices.push_back(static_cast<int>(s.vertices.size()));
+        s.vertices.emplace_back(0.03 * (c - 1), top - edge * k, 0.0);
+      }
+      tops.push_back(hang.vertices.front());
+      s.poses.resize(1);
+      s.poses[0].clamped.push_back({hang.vertices.back()});
+      s.rods.push_back(hang);
+    }
+    for (int c = 0; c < 2; ++c) {
+      Rod rail;
+      rail.vertices.push_back(tops[static_cast<std::size_t>(c)]);
+      for (int k = 1; k <= 3; ++k) {
+        rail.vertices.push_back(static_cast<int>(s.vertices.size()));
+        s.vertices.emplace_back(0.03 * (c - 1) + edge * k, top, 0.0);
+      }
+      rail.vertices.push_back(tops[static_cast<std::size_t>(c + 1)]);
+      s.rods.push_back(rail);
+    }
+    s.radii.assign(s.vertices.size(), Vec2(0.001, 0.001));
+    s.poses[0].name = "squeeze";
+    for (std::size_t v = 0; v < s.vertices.size(); ++v)
+      if (s.vertices[v].y() == top) s.poses[0].fixed.push_back({static_cast<int>(v), s.vertices[v] - Vec3(0, drop, 0)});
+    if (!planar) s.gravity = Vec3(0, 0, -kG);
+    const RunResult run = simulate(s);
+    ASSERT_EQ(run.status, 0) << run.err;
+    const Archive a = archive();
+    EXPECT_EQ(a.status, "converged");
+    EXPECT_TRUE(archiveFinite(a));
+    EXPECT_EQ(run.err.find("overflow"), std::string::npos) << run.err;
+    EXPECT_NEAR(onlyPose(a).positions(tops[1], 1), top - drop, 1e-12) << "the rail went down";
+  }
+}
+
 // Young's modulus of 1e3 Pa under gravity (the issue's rod otherwise): the
 // rod hangs from its clamp and stretches by rho g L^2 / (2 E) = 2.45 m.
 TEST_F(HardStatics, VerySoftRodHangsUnderItsWeight) {
