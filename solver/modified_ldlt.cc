@@ -103,6 +103,14 @@ Eigen::VectorXd ModifiedLdlt::solve(const Eigen::VectorXd& b) const {
   return ldlt_.permutationPinv() * y;
 }
 
+Eigen::VectorXd ModifiedLdlt::solveUnmodified(const Eigen::VectorXd& b) const {
+  Eigen::VectorXd y = ldlt_.permutationP() * b;
+  ldlt_.matrixL().solveInPlace(y);
+  y.array() /= ldlt_.vectorD().array();
+  ldlt_.matrixU().solveInPlace(y);
+  return ldlt_.permutationPinv() * y;
+}
+
 double ModifiedLdlt::stiffDecrement(const Eigen::VectorXd& b) const {
   Eigen::VectorXd y = ldlt_.permutationP() * b;
   ldlt_.matrixL().solveInPlace(y);

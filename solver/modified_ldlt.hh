@@ -59,6 +59,10 @@ class ModifiedLdlt {
 
   // (L |D|' L^T)^-1 b.
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
+  // (L D L^T)^-1 b with the pivots as factorized (of the round-off-raised
+  // matrix when the elimination met an exactly zero pivot): the inverse of
+  // the matrix itself, for inverse iteration.
+  Eigen::VectorXd solveUnmodified(const Eigen::VectorXd& b) const;
   // b^T (L |D|' L^T)^-1 b over the pivots that carry stiffness (zero-stiffness
   // modes left out): the Newton decrement of a gradient b.
   double stiffDecrement(const Eigen::VectorXd& b) const;

@@ -126,25 +126,16 @@ Stability stability(const PoseSystem& system, const Design& design, const PoseSt
   for (int k = 0; k < K.outerSize(); ++k)
     for (Eigen::SparseMatrix<double>::InnerIterator it(K, k); it; ++it)
       if (it.row() == it.col()) out.largestDiagonal = std::max(out.largestDiagonal, std::abs(it.value()));
-  Ldlt ldlt;
-  ldlt.compute(K);
-  Eigen::VectorXd D = ldlt.vectorD();
-  if (ldlt.info() != Eigen::Success || !D.allFinite()) {
-    // Exactly singular: shift by round-off and retry.
-    double maxDiag = 0.0;
-    for (int k = 0; k < K.outerSize(); ++k)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(K, k); it; ++it)
-        if (it.row() == it.col()) maxDiag = std::max(maxDiag, std::abs(it.value()));
-    Eigen::SparseMatrix<double> I(n, n);
-    I.setIdentity();
-    K += (kPivotRoundoff * kEps * std::max(maxDiag, 1e-300)) * I;
-    ldlt.compute(K);
-    D = ldlt.vectorD();
-    if (ldlt.info() != Eigen::Success || !D.allFinite()) return out;
-  }
+  // Pivots classified as Newton's solver classifies them (solver/
+  // modified_ldlt.hh): a pivot within round-off of its row's scale is a
+  // zero-stiffness mode, not negative curvature. A mechanism's rigid
+  // rotation about a hinge (a sheet held at two corners) comes out at
+  // -8e-15 N/m; counted as negative, a pose Newton converged on was
+  // archived with stable = 0.
+  ModifiedLdlt ldlt;
+  if (!ldlt.factorize(K)) return out;
   out.ok = true;
-  for (int i = 0; i < n; ++i)
-    if (D[i] < 0) ++out.negative;
+  out.negative = ldlt.negative();
   // Inverse iteration: converges to the eigenvalue of smallest magnitude.
   Eigen::VectorXd x(n);
   for (int i = 0; i < n; ++i) x[i] = pseudoSign(static_cast<std::uint64_t>(i)) * (1.0 + 0.5 * std::sin(0.37 * i));
@@ -152,7 +143,7 @@ Stability stability(const PoseSystem& system, const Design& design, const PoseSt
   const Eigen::SparseMatrix<double> Kfull = K.selfadjointView<Eigen::Lower>();
   double lambda = 0.0;
   for (int k = 0; k < 60; ++k) {
-    Eigen::VectorXd y = ldlt.solve(x);
+    Eigen::VectorXd y = ldlt.solveUnmodified(x);
     const double ny = y.norm();
     if (!(ny > 0) || !std::isfinite(ny)) break;
     x = y / ny;

@@ -1,5 +1,6 @@
 // Poses without supports: unbalanced loads have no static equilibrium and are
 // reported as such (never as converged); self-balanced loads converge.
+#include "meshing/grid.hh"
 #include "solver/equilibrium.hh"
 #include "tests/testutil/scenes.hh"
 
@@ -47,6 +48,35 @@ TEST(Supports, ConvergedMeansEquilibriumAtFullLoad) {
   // reference frames of edges that turned far).
   sys.evaluate(r.poses[0].state, d, &g, nullptr);
   EXPECT_LE(sys.forceResidual(g).norm(), 1e-6 * r.poses[0].report.loadScale);
+}
+
+// A sheet held at two vertices only is hinged about the line through them:
+// its rigid rotation about that line has no stiffness. Unloaded, its rest
+// state is converged and stable (a zero-stiffness mode is no negative
+// curvature: the same classification of pivots as Newton's), not
+// "converged" with stable = 0, as the rotation's eigenvalue at -8e-15 N/m
+// used to be counted.
+TEST(Supports, AHingedSheetAtRestIsStableWithAZeroMode) {
+  meshing::GridOptions g;
+  g.width = g.height = 0.06;
+  g.cellsX = g.cellsY = 2;
+  g.rodVertices = 3;
+  g.designRadii = g.designRestShape = false;
+  Scene s = meshing::makeGridSheet(g).scene;
+  s.design = DesignSpec{};
+  s.poses.assign(1, Pose{});
+  s.poses[0].name = "hinged";
+  s.poses[0].fixed = {{0, std::nullopt}, {static_cast<int>(s.vertices.size()) - 1, std::nullopt}};
+  // In 3D (a flat sheet would be solved in plane, where nothing rotates
+  // about the hinge).
+  s.effects = std::vector<Effect>{Effect::Stretch, Effect::Bend, Effect::Twist, Effect::Connections};
+  SceneModel model(s);
+  const SimulationResult r = simulateAll(model, Design::fromScene(s), NewtonOptions{});
+  ASSERT_TRUE(r.allConverged) << r.poses[0].report.message;
+  ASSERT_TRUE(r.poses[0].stable.has_value());
+  EXPECT_TRUE(*r.poses[0].stable);
+  ASSERT_TRUE(r.poses[0].smallestEigenvalue.has_value());
+  EXPECT_LT(std::abs(*r.poses[0].smallestEigenvalue), 1e-9) << "the hinge has no stiffness";
 }
 
 }  // namespace
