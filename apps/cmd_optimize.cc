@@ -25,6 +25,7 @@
 #include "io/interrupt.hh"
 #include "model/design_space.hh"
 #include "solver/design_fallback.hh"
+#include "solver/format.hh"
 #include "solver/design_optimizer.hh"
 #include "solver/equilibrium.hh"
 #ifdef RODMESH_HAVE_NLP
@@ -308,8 +309,16 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     writeArchive(a, o.output);
     uninstallInterruptFlag();
     if (!quiet) {
-      std::fprintf(stderr, "RMS error %.4f mm (initial design %.4f mm, %.1fx lower)\n", rms.value_or(0.0) * 1e3,
-                   run.initialRms * 1e3, rms && *rms > 0 ? run.initialRms / *rms : 0.0);
+      // The ratio only where both RMS errors are positive, and said the way
+      // it went: a run can end worse than its initial design on the RMS
+      // (the objective weighs poses by their weights).
+      std::string change;
+      if (rms && *rms > 0 && run.initialRms > 0 && std::isfinite(run.initialRms)) {
+        const double ratio = run.initialRms / *rms, factor = ratio >= 1.0 ? ratio : 1.0 / ratio;
+        change = formatNumber(factor < 100.0 ? ", %.2fx" : ", %.3gx", factor) + (ratio >= 1.0 ? " lower" : " higher");
+      }
+      std::fprintf(stderr, "RMS error %.4f mm (initial design %.4f mm%s)\n", rms.value_or(0.0) * 1e3,
+                   run.initialRms * 1e3, change.c_str());
       std::cerr << "wrote " << o.output << " (" << a.status << ")\n";
     }
     return converged ? kExitDone : kExitNotConverged;
