@@ -139,6 +139,59 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
                   unstablePose.c_str(), inPlaneRms * 1e3, chosen.rms * 1e3);
     chosen.note += (chosen.note.empty() ? "" : "; ") + std::string(buf);
   }
+  // A scene without normals has them derived from its rest shape (docs/
+  // formats.md), and they are scene data: the optimizer keeps them while the
+  // rest shape changes. `rodmesh simulate` of the archived design derives
+  // them from the archived rest shape instead, so with a rest shape out of
+  // its plane they differ, and so would its equilibria (0.06 mm on a 26-
+  // vertex spider whose targets it met to 2e-4 mm). Archive what simulate
+  // solves, and say how far that is from the design under the scene's
+  // normals; beyond the gap tolerance the archived equilibria are not the
+  // designed ones (not converged).
+  std::unique_ptr<Scene> renormalizedScene;
+  std::unique_ptr<SceneModel> renormalizedModel;
+  {
+    const Scene& base = spatialScene ? *spatialScene : scene;
+    if (base.normals.empty() && archiveModel->network().normalSource() == "derived" &&
+        chosen.design.restPositions != base.vertices) {
+      auto resim = std::make_unique<Scene>(base);
+      resim->vertices = chosen.design.restPositions;
+      resim->radii = chosen.design.radii;
+      resim->design = DesignSpec{};
+      auto resimModel = std::make_unique<SceneModel>(*resim);
+      if (resimModel->network().vertexNormals() != archiveModel->network().vertexNormals() &&
+          resimModel->effects().planar == archiveModel->effects().planar &&
+          resimModel->pose(0).numDofs() == archiveModel->pose(0).numDofs()) {
+        SimulationResult sim = simulateAll(*resimModel, Design::fromScene(*resim), resolve);
+        double gap = 0.0;
+        for (std::size_t p = 0; p < sim.poses.size() && p < chosen.simulation.poses.size(); ++p)
+          for (std::size_t v = 0; v < sim.poses[p].positions.size(); ++v)
+            gap = std::max(gap, (sim.poses[p].positions[v] - chosen.simulation.poses[p].positions[v]).norm());
+        if (gap > 0.0) {
+          const double before = chosen.rms;
+          chosen.simulation = std::move(sim);
+          chosen.allConverged = chosen.simulation.allConverged;
+          chosen.rms = rmsError(chosen.simulation);
+          chosen.renormalized = true;
+          chosen.normalsGap = gap;
+          const bool beyond = chosen.gapTolerance > 0 && gap > chosen.gapTolerance;
+          if (beyond) chosen.offPath = true;
+          char buf[600];
+          std::snprintf(buf, sizeof buf,
+                        "the scene gives no normals: they were derived from its rest shape and kept while the rest "
+                        "shape was optimized, but `rodmesh simulate` derives them from the archived rest shape; "
+                        "solved with those, as archived, the poses lie up to %.4g mm from the designed equilibria "
+                        "(RMS %.4g mm, against %.4g mm)%s; give \"normals\" in the scene to keep them",
+                        gap * 1e3, chosen.rms * 1e3, before * 1e3,
+                        beyond ? ", beyond the gap tolerance: not the optimized equilibria" : "");
+          chosen.note += (chosen.note.empty() ? "" : "; ") + std::string(buf);
+          renormalizedScene = std::move(resim);
+          renormalizedModel = std::move(resimModel);
+          archiveModel = renormalizedModel.get();
+        }
+      }
+    }
+  }
   // A design whose pose sits at a critical point reaches its equilibrium
   // only as built and loaded exactly: say so (optimizers run to such
   // points when a target lies beyond the branch's end).
@@ -149,7 +202,8 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // The optimizer's own test of its final design (DesignOptimizerOptions::
   // imperfectionBackOff) is reused when that design is archived as solved.
   const SimulationResult& checked = r.imperfectionCheck;
-  const bool reuse = !chosen.fallback && !chosen.outOfPlane && sameControls(chosen.controls, r.controls) &&
+  const bool reuse = !chosen.fallback && !chosen.outOfPlane && !chosen.renormalized &&
+                     sameControls(chosen.controls, r.controls) &&
                      checked.poses.size() == chosen.simulation.poses.size();
   for (std::size_t p = 0; reuse && p < checked.poses.size(); ++p) {
     chosen.simulation.poses[p].imperfectionGap = checked.poses[p].imperfectionGap;

@@ -78,6 +78,13 @@ struct ArchivedDesign {
   // `rodmesh simulate` does, every pose was solved again in 3D with twist,
   // and `simulation` holds those equilibria (not the optimizer's).
   bool outOfPlane = false;
+  // The scene gives no normals, so they were derived from its rest shape and
+  // kept while the rest shape was optimized; `rodmesh simulate` derives them
+  // from the archived rest shape instead: every pose was solved again with
+  // those, and `simulation` holds these equilibria (`normalsGap`, m, the
+  // largest distance to the ones under the scene's normals).
+  bool renormalized = false;
+  double normalsGap = 0.0;
 };
 
 // The loading-path equilibria of a design are "the ones the optimizer
