@@ -167,7 +167,14 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
         for (std::size_t p = 0; p < sim.poses.size() && p < chosen.simulation.poses.size(); ++p)
           for (std::size_t v = 0; v < sim.poses[p].positions.size(); ++v)
             gap = std::max(gap, (sim.poses[p].positions[v] - chosen.simulation.poses[p].positions[v]).norm());
-        if (gap > 0.0) {
+        // Differences at the solver's own position tolerance (1e-9 of the
+        // structure's size) are round-off of the derivation, not of the design.
+        Vec3 lo = base.vertices.front(), hi = lo;
+        for (const Vec3& x : base.vertices) {
+          lo = lo.cwiseMin(x);
+          hi = hi.cwiseMax(x);
+        }
+        if (gap > 1e-9 * (hi - lo).norm()) {
           const double before = chosen.rms;
           chosen.simulation = std::move(sim);
           chosen.allConverged = chosen.simulation.allConverged;
