@@ -24,15 +24,22 @@
 namespace rodmesh {
 namespace {
 
-Scene rolledSheet(double degrees) {
+// A 100 mm hex sheet of cells x cells cells, rods of `rodVertices`
+// vertices, held along its left side; no design.
+Scene heldSheet(int cells, int rodVertices) {
   meshing::GridOptions g;
   g.width = g.height = 0.1;
-  g.cellsX = g.cellsY = 3;
-  g.rodVertices = 4;
+  g.cellsX = g.cellsY = cells;
+  g.rodVertices = rodVertices;
   g.designRadii = g.designRestShape = false;
   g.fixSides = {meshing::GridSide::Left};
   Scene s = meshing::makeGridSheet(g).scene;
   s.design = DesignSpec{};
+  return s;
+}
+
+Scene rolledSheet(double degrees) {
+  Scene s = heldSheet(3, 4);
   double x0 = s.vertices.front().x(), x1 = x0;
   for (const Vec3& v : s.vertices) {
     x0 = std::min(x0, v.x());
@@ -145,14 +152,7 @@ TEST(RolledSheet, ARodWhoseEndIsCarriedRoundReportsNoJumpsAlongItsSmoothPath) {
 // and the weight load the sheet), the full load is one step whose corrector
 // converges like Newton's method (4 iterations).
 TEST(RolledSheet, ALiftedHandleIsOneStepFromTheTangentAtRest) {
-  meshing::GridOptions g;
-  g.width = g.height = 0.1;
-  g.cellsX = g.cellsY = 6;
-  g.rodVertices = 8;
-  g.designRadii = g.designRestShape = false;
-  g.fixSides = {meshing::GridSide::Left};
-  Scene s = meshing::makeGridSheet(g).scene;
-  s.design = DesignSpec{};
+  Scene s = heldSheet(6, 8);
   for (const int v : meshing::sideVertices(s, meshing::GridSide::Right, 1e-9))
     s.poses[0].fixed.push_back({v, s.vertices[static_cast<std::size_t>(v)] + Vec3(0.0, 0.0, 0.02)});
   s.gravity = Vec3(0.0, 0.0, -9.81);
