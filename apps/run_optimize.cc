@@ -143,8 +143,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // formats.md), and they are scene data: the optimizer keeps them while the
   // rest shape changes. `rodmesh simulate` of the archived design derives
   // them from the archived rest shape instead, so with a rest shape out of
-  // its plane they differ, and so would its equilibria (0.06 mm on a 26-
-  // vertex spider whose targets it met to 2e-4 mm). Archive what simulate
+  // its plane they differ, and so would its equilibria. Archive what simulate
   // solves, and say how far that is from the design under the scene's
   // normals; beyond the gap tolerance the archived equilibria are not the
   // designed ones (not converged).

@@ -75,11 +75,10 @@ namespace {
 // The force residual of the rest unknowns under the full load, twists
 // measured in the given charts. Where it is not finite, the residual at the
 // largest load factor 2^-k (k <= 40) where it is, over that factor: a held
-// vertex prescribed past its neighbour along a straight rod (a 10 mm push on
-// 7.5 mm edges) makes that edge antiparallel to its rest tangent at the
-// full load with the free vertices at rest, where its frame is undefined,
-// though every state of the loading path is well defined (the free
-// vertices move along). Infinite only when no load factor gives a finite
+// vertex prescribed past its neighbour along a straight rod makes that edge
+// antiparallel to its rest tangent at the full load with the free vertices
+// at rest, where its frame is undefined, though every state of the loading
+// path is well defined (the free vertices move along). Infinite only when no load factor gives a finite
 // residual (loads that overflow double precision).
 double loadScaleIn(const PoseSystem& system, const Design& design, const Charts& charts) {
   const Eigen::VectorXd rest = system.restDofs(design);
@@ -128,10 +127,10 @@ Stability stability(const PoseSystem& system, const Design& design, const PoseSt
       if (it.row() == it.col()) out.largestDiagonal = std::max(out.largestDiagonal, std::abs(it.value()));
   // Pivots classified as Newton's solver classifies them (solver/
   // modified_ldlt.hh): a pivot within round-off of its row's scale is a
-  // zero-stiffness mode, not negative curvature. A mechanism's rigid
-  // rotation about a hinge (a sheet held at two corners) comes out at
-  // -8e-15 N/m; counted as negative, a pose Newton converged on was
-  // archived with stable = 0.
+  // zero-stiffness mode, not negative curvature, so that a mechanism's rigid
+  // rotation about a hinge (a sheet held at two corners), whose eigenvalue
+  // is round-off of either sign, does not make an equilibrium Newton
+  // converged on unstable.
   ModifiedLdlt ldlt;
   if (!ldlt.factorize(K)) return out;
   out.ok = true;
@@ -321,9 +320,8 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   // square of its sideways motion over their length, which the path never
   // sees (the free vertices follow), so the step is far from the path's
   // direction and, where edges are compressed, meets negative curvature at
-  // once: a sheet whose handle is lifted by centimetres had its first step
-  // rejected down to 2^-9 of the load and doubled back to the full load in
-  // nine more steps.
+  // once, so that the path's first step is shortened far below what the path
+  // allows and has to double back to the full load.
   const double pathTol = std::min(std::max(opt.tolerance, 1e-6), 1e-4);
   auto pathTangent = [&](const Eigen::VectorXd& from, const Charts& fromCharts, double lamFrom) -> Eigen::VectorXd {
     Eigen::VectorXd g, gp, gm;
@@ -347,10 +345,8 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
   // at the first iteration whose full Newton step does not lower the energy
   // enough or whose force residual rises (stopOutsideNewtonRegion,
   // solver/minimizer.hh). A corrector that wanders may settle on another
-  // branch well within pathDeviation of a long prediction: a sheet whose
-  // handle is lifted, twisted and pushed, predicted over its whole load,
-  // landed on the buckled branch 20 mm RMS from its loading path's,
-  // deviating by 0.38 of the prediction.
+  // branch well within pathDeviation of a long prediction (a buckled one,
+  // for a handle that is pushed as well as lifted; docs/model.md).
   // Only where held vertices are prescribed away from rest: under applied
   // loads alone the stiffness at fixed free unknowns does not depend on the
   // load factor, so Newton's first step is this tangent already.
