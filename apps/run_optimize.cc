@@ -11,6 +11,7 @@
 #include "apps/run.hh"
 #include "solver/design_fallback.hh"
 #include "solver/design_optimizer.hh"
+#include "solver/minimizer.hh"
 #ifdef RODMESH_HAVE_NLP
 #include "nlp/sand.hh"
 #endif
@@ -168,12 +169,8 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
             gap = std::max(gap, (sim.poses[p].positions[v] - chosen.simulation.poses[p].positions[v]).norm());
         // Differences at the solver's own position tolerance (1e-9 of the
         // structure's size) are round-off of the derivation, not of the design.
-        Vec3 lo = base.vertices.front(), hi = lo;
-        for (const Vec3& x : base.vertices) {
-          lo = lo.cwiseMin(x);
-          hi = hi.cwiseMax(x);
-        }
-        if (gap > 1e-9 * (hi - lo).norm()) {
+        const PoseSystem& first = archiveModel->pose(0);
+        if (gap > 1e-9 * structureSize(first, chosen.design, first.restState(chosen.design))) {
           const double before = chosen.rms;
           chosen.simulation = std::move(sim);
           chosen.allConverged = chosen.simulation.allConverged;

@@ -146,6 +146,12 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
       rep.message = "force residual below tolerance";
       break;
     }
+    // Checked before the factorization: a refused corrector costs none.
+    if (opt.stopOutsideNewtonRegion && it > 0 && !(rep.residualHistory[it] < rep.residualHistory[it - 1]) && !small) {
+      rep.outcome = Outcome::Stalled;
+      rep.message = "left Newton's region of convergence (the force residual rose)";
+      break;
+    }
 
     // Factorize Phi's Hessian at the current point (solver/modified_ldlt.hh).
     const Eigen::SparseMatrix<double>& H0 = inertia ? timeStepMatrix(ws, *inertia) : H;
@@ -186,11 +192,6 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
     if (!std::isfinite(floorForce)) floorForce = 0.0;
     rep.roundoffFloor = floorForce;
 
-    if (opt.stopOutsideNewtonRegion && it > 0 && !(rep.residualHistory[it] < rep.residualHistory[it - 1]) && !small) {
-      rep.outcome = Outcome::Stalled;
-      rep.message = "left Newton's region of convergence (the force residual rose)";
-      break;
-    }
     if (opt.stopAtNegative && negative > 0) {
       // A load step of the loading path that meets negative curvature is too
       // long, or crosses a critical point: the caller shortens it.

@@ -140,17 +140,13 @@ def saddle_obj(path, W=0.16, a=0.12):
 
 
 # design space: Bernstein per rod, control points at arc fractions j/(n-1)
+# (the study's helpers, benchmarks/study/sweeps_scenes.py)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "study"))
+from sweeps_scenes import bernstein, rod_arc_fractions  # noqa: E402
+
+
 def arc_fractions(V, rod):
-    P = V[rod["vertices"]]
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
-    return s / s[-1]
-
-
-def bernstein(n, s):
-    s = np.asarray(s, float)[:, None]
-    j = np.arange(n)[None, :]
-    c = np.array([math.comb(n - 1, i) for i in range(n)])[None, :]
-    return c * s ** j * (1 - s) ** (n - 1 - j)
+    return rod_arc_fractions(V, rod)
 
 
 def hidden(scene, n, rfun=None, dfun=None):
