@@ -193,6 +193,10 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                 "keep the final design even when a pose is imperfection-sensitive (its loading path reaches another "
                 "equilibrium with the radii 0.1% off; by default the run backs off towards the initial design to "
                 "the nearest design tested that is not)");
+  app->add_flag("--scene-start", opts->sceneStart,
+                "start from the scene's rest shape even when the rest shape of a pose's target does better from rest "
+                "(with rest_shape free, by default each such rest shape is solved from rest and the best start is "
+                "used)");
 
   Command c;
   c.app = app;

@@ -59,6 +59,7 @@ struct OptimizeOptions {
   std::string designDerivatives;  // exact (default), fd or fd-resolve; --method reduced only
   std::vector<std::string> ipopt;
   bool noImperfectionBackOff = false;  // --no-imperfection-back-off (sets optimizer.imperfectionBackOff)
+  bool sceneStart = false;             // --scene-start (clears optimizer.startFromTargets)
   DesignOptimizerOptions optimizer;
 };
 

@@ -32,6 +32,7 @@ bool sandAvailable() {
 
 void checkOptimizeOptions(OptimizeOptions& o) {
   o.optimizer.imperfectionBackOff = !o.noImperfectionBackOff;
+  o.optimizer.startFromTargets = !o.sceneStart;
   if (o.method.empty()) o.method = sandAvailable() ? "sand" : "reduced";
   if (o.method == "sand" && !sandAvailable())
     throw InputError("optimize: --method sand: the Ipopt optimizer is not part of this build; use --method reduced");

@@ -162,7 +162,7 @@ cli::SimulateOptions simulateOptions(const py::dict& kw) {
 cli::OptimizeOptions optimizeOptions(const py::dict& kw) {
   rejectUnknown(kw,
                 {"method", "max_iter", "time_limit", "tol", "schedule", "threads", "design_derivatives", "ipopt",
-                 "no_imperfection_back_off"},
+                 "no_imperfection_back_off", "scene_start"},
                 "optimize");
   checkWhole(kw, "max_iter", 0, cli::kMaxOptimizeIterations);
   checkReal(kw, "time_limit", cli::kTimeLimitRange);
@@ -187,6 +187,7 @@ cli::OptimizeOptions optimizeOptions(const py::dict& kw) {
   if (has("threads")) o.optimizer.threads = kw["threads"].cast<int>();
   if (has("design_derivatives")) o.designDerivatives = member("design_derivatives", {"exact", "fd", "fd-resolve"});
   if (has("no_imperfection_back_off")) o.noImperfectionBackOff = kw["no_imperfection_back_off"].cast<bool>();
+  if (has("scene_start")) o.sceneStart = kw["scene_start"].cast<bool>();
   if (has("ipopt")) {
     py::object ip = kw["ipopt"];
     if (py::isinstance<py::dict>(ip)) {

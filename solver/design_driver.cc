@@ -156,6 +156,12 @@ class DesignDriver {
   // with its loading path's equilibria. Returns what the message says (empty:
   // nothing sensitive, or nothing done).
   std::string backOffFromImperfection();
+  // With the rest shape free: the rest shapes in which one pose's target is
+  // the unloaded shape (the least-squares fit of the control displacements
+  // to that target), each solved along its loading path from rest; the best
+  // becomes the run's start when it does better than the initial design.
+  // Returns what the message says of it (empty: the initial design stays).
+  std::string startFromTargets();
   // Newton from `states` under `d` (timed as model evaluations), then f and
   // the RMS there; false when a pose fails or f is not finite.
   bool solveAndScore(const Design& d, std::vector<PoseState>& states, double& f, double& rms);
@@ -203,6 +209,7 @@ class DesignDriver {
     return best;
   }
   OnPathDesign bestOnPath_;
+  ControlValues start_;          // the design the schedule started from (the initial one, or startFromTargets')
   OnPathDesign lastPath_;        // the design offLoadingPath solved last, with its loading path
   bool wentOnFromPath_ = false;  // continueFromPath was called
 };
@@ -245,7 +252,9 @@ std::string DesignDriver::backOffFromImperfection() {
   if (interrupted()) return "";  // solves cut short prove nothing
   if (sim.allConverged) res_.imperfectionCheck = sim;
   if (!base || !sim.allConverged) return "";
-  const ControlValues initial = space_.initialControls(scene_);
+  const ControlValues& initial = start_;
+  const std::string from =
+      sameControls(start_, space_.initialControls(scene_)) ? "the initial design" : "the design the run started from";
   const std::string gapText = std::isfinite(gap) ? "reaches an equilibrium " + millimetres(gap) + " away"
                                            : "reaches no equilibrium";
   const std::string what = "pose '" + pose + "' of the final design is imperfection-sensitive (with its radii 0.1% " +
@@ -270,10 +279,10 @@ std::string DesignDriver::backOffFromImperfection() {
     res_.imperfectionCheck = std::move(s);
     char buf[64];
     std::snprintf(buf, sizeof buf, "%g", t);
-    return what + ": the result is the design " + buf + " of the way from the initial design to it, the nearest " +
+    return what + ": the result is the design " + buf + " of the way from " + from + " to it, the nearest " +
            "tested that is not (RMS " + millimetres(rms) + " as loaded from rest, against " + millimetres(before) + ")";
   }
-  return what + "; no design between it and the initial design that was tested is better and not sensitive";
+  return what + "; no design between it and " + from + " that was tested is better and not sensitive";
 }
 
 double DesignDriver::structureSize() const {
@@ -478,6 +487,51 @@ bool DesignDriver::seedTowardsDesigned(const std::vector<PoseState>& path, std::
   return false;
 }
 
+// startFromTargets: the objective ratio a target's rest shape must beat.
+constexpr double kTargetStartGain = 0.5;
+
+std::string DesignDriver::startFromTargets() {
+  if (!scene_.design.restShape || !opt_.startFromTargets) return "";
+  const int K = model_.numPoses();
+  const int nv = space_.numVertices();
+  const Eigen::SparseMatrix<double> W = space_.interpolation();
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Eigen::SparseMatrix<double>(W.transpose() * W));
+  if (ldlt.info() != Eigen::Success) return "";
+  // A target's rest shape replaces the scene's only when it at least halves
+  // the objective: the scene's rest shape is the designer's, and a start
+  // only marginally better from rest need not lie in a better basin
+  // (docs/optimization.md, "The start").
+  OnPathDesign best = bestOnPath_;
+  best.objective *= kTargetStartGain;
+  int chosen = -1;
+  for (int k = 0; k < K; ++k) {
+    const Pose& pose = scene_.poses[static_cast<std::size_t>(k)];
+    if (!(pose.weight > 0) || static_cast<int>(pose.target.size()) != nv) continue;
+    if (interrupted() || timeUp()) break;
+    // The rest displacement that makes this target the unloaded shape, as
+    // nearly as the control points can (for a planar scene toDesign keeps
+    // its in-plane part).
+    Eigen::MatrixXd field(nv, 3);
+    for (int v = 0; v < nv; ++v) field.row(v) = (pose.target[v] - scene_.vertices[v]).transpose();
+    const Eigen::MatrixXd delta = ldlt.solve(W.transpose() * field);
+    if (ldlt.info() != Eigen::Success || !delta.allFinite()) continue;
+    ControlValues c = res_.controls;
+    c.displacement = delta;
+    const Design d = space_.toDesign(c);
+    std::vector<PoseState> path = restStates(d);
+    double f = 0.0, rms = 0.0;
+    if (!solveAndScore(d, path, f, rms) || !(f < best.objective)) continue;
+    best = {c, d, f, rms, path, "the rest shape of pose '" + pose.name + "''s target"};
+    chosen = k;
+  }
+  if (chosen < 0) return "";
+  adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);
+  bestOnPath_ = best;
+  start_ = best.controls;
+  return "the run started from " + best.label + " (RMS " + millimetres(best.rms) +
+         " as loaded from rest, against " + millimetres(res_.initialRms) + " for the initial design)";
+}
+
 void DesignDriver::continueFromPath(std::vector<PoseState> path) {
   double f = 0.0;
   const double rms = objective_.rms(objectiveOfStates(model_, objective_, res_.design, path, f));
@@ -577,6 +631,10 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
                                           formatNumber("%.3g", rms0) + " m, structure size " +
                                           formatNumber("%.3g", structureSize()) + " m)");
   if (std::string why = solver.prepare(states_, f0); !why.empty()) return finish(Outcome::InvalidProblem, why);
+  start_ = res_.controls;
+  const std::string startNote = startFromTargets();
+  if (interrupted()) return finish(Outcome::Interrupted, "interrupted");
+  if (timeUp()) return finish(Outcome::TimeLimit, "time limit reached");
   // The optimizer's designs are re-solved on a second thread, so that a
   // design that re-solves from rest is at hand at every moment.
   if (opt_.confirmDesigns)
@@ -586,6 +644,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   Outcome stop = Outcome::Converged;
   std::string message = "schedule completed";
   std::vector<std::string> notes;  // what the phase ends did besides keeping designs
+  if (!startNote.empty()) notes.push_back(startNote);
   int iterations = 0;
   double roundStart = res_.objective;
   int roundStartIteration = 0;

@@ -144,6 +144,11 @@ struct DesignOptimizerOptions {
   // does better than the initial one (docs/optimization.md, "Imperfection
   // back-off").
   bool imperfectionBackOff = true;
+  // With the rest shape free, also try as the start the rest shapes in which
+  // one pose's target is the unloaded shape, each solved from rest; the
+  // best of them and the initial design is where the schedule starts
+  // (docs/optimization.md, "The start").
+  bool startFromTargets = true;
   // Called on the monitor's thread with every newly confirmed best design.
   std::function<void(const ConfirmedDesign&)> onConfirmed;
   std::string isValid() const;

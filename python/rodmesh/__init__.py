@@ -250,7 +250,7 @@ def optimize(scene, method=None, callback=None, quiet=True, **options):
     'reduced'. Options are the CLI's flags: max_iter, time_limit, tol,
     schedule ('paper' | 'joint' | 'levels' | 'multilevel'), threads,
     design_derivatives ('exact' | 'fd' | 'fd-resolve'), ipopt (dict or list of
-    'KEY=VALUE'), no_imperfection_back_off (bool).
+    'KEY=VALUE'), no_imperfection_back_off (bool), scene_start (bool).
 
     callback(info) is called once per iteration with the progress line's
     fields (iteration, level, phase, objective, rms_error, constraint_violation,

@@ -503,7 +503,11 @@ TEST(DesignDriver, ARestShapeSeededTowardsTheDesignedBranchBringsThePathOntoIt) 
   const SceneModel& targeted = *arch.targeted;
   ScriptedPhases phases;
   phases.script = proposing(c0, inverted);
-  const DesignOptimizerResult r = runDesign(targeted, space, driverOptions(), phases);
+  // From the scene's rest shape (the target's rest shape, an inverted arch,
+  // would be the start otherwise: see the next test).
+  DesignOptimizerOptions o = driverOptions();
+  o.startFromTargets = false;
+  const DesignOptimizerResult r = runDesign(targeted, space, o, phases);
   ASSERT_EQ(phases.tasks.size(), 2u) << r.message;
   EXPECT_NE(r.message.find("rest shape displaced by"), std::string::npos) << r.message;
   // The retry starts from the seeded design, with its path's (inverted) equilibria.
@@ -524,6 +528,47 @@ TEST(DesignDriver, ARestShapeSeededTowardsTheDesignedBranchBringsThePathOntoIt) 
   const ArchivedDesign a = chooseArchivedDesign(targeted, space, r, NewtonOptions{});
   EXPECT_FALSE(a.offPath) << a.note;
   EXPECT_NEAR(a.rms, r.rms, 1e-9);
+}
+
+// The same arch with the rest shape free: the rest shape in which the
+// target (below the inverted arch) is unloaded, fitted by the control
+// points, is an inverted arch whose loading path stays inverted, far closer
+// to the target than the scene's arch, which stays up. The first phase
+// starts there; the initial design is still the scene's.
+TEST(DesignDriver, TheRestShapeOfATargetThatHalvesTheObjectiveIsTheStart) {
+  const ArchTargetedInverted arch(/*restShape=*/true);
+  const SceneModel& targeted = *arch.targeted;
+  ScriptedPhases phases;
+  phases.script = [](const PhaseTask& task, PhaseContext&) {
+    PhaseResult r;
+    r.iterations = 1;
+    r.candidates.push_back({task.controls, task.states});
+    return r;
+  };
+  const DesignOptimizerResult r = runDesign(targeted, arch.space, driverOptions(), phases);
+  ASSERT_EQ(phases.tasks.size(), 1u) << r.message;
+  EXPECT_NE(r.message.find("the run started from the rest shape of pose"), std::string::npos) << r.message;
+  const Design start = arch.space.toDesign(phases.tasks[0].controls);
+  EXPECT_LT(start.restPositions[20].z(), -0.01) << "an inverted arch at rest";
+  EXPECT_LT(targeted.pose(0).positions(phases.tasks[0].states[0], start)[20].z(), -0.01);
+  EXPECT_LT(phases.tasks[0].objective, 0.5 * r.initialObjective);
+  // The initial design's RMS is the scene's arch, loaded from rest.
+  double f0 = 0.0;
+  std::vector<PoseState> rest{targeted.pose(0).restState(arch.d0)};
+  ASSERT_TRUE(solvePosesFrom(targeted, arch.d0, rest, NewtonOptions{}, 1));
+  TargetObjective objective(arch.s, targeted.effects());
+  objectiveOfStates(targeted, objective, arch.d0, rest, f0);
+  EXPECT_NEAR(r.initialObjective, f0, 1e-9 * f0);
+  EXPECT_LT(r.rms, 0.5 * r.initialRms);
+  // Off, the scene's arch is the start.
+  DesignOptimizerOptions o = driverOptions();
+  o.startFromTargets = false;
+  ScriptedPhases again;
+  again.script = phases.script;
+  const DesignOptimizerResult s = runDesign(targeted, arch.space, o, again);
+  ASSERT_EQ(again.tasks.size(), 1u) << s.message;
+  EXPECT_TRUE(sameControls(again.tasks[0].controls, arch.c0));
+  EXPECT_EQ(s.message.find("the run started from"), std::string::npos) << s.message;
 }
 
 // The arch with its targets on the initial design's inverted branch, and a
