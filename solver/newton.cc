@@ -23,6 +23,9 @@ double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 using Ldlt = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>>;
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+// Whether two states measure their twists in the same charts.
+bool sameCharts(const Charts& a, const Charts& b) { return a.tangent == b.tangent && a.director == b.director; }
 // Deterministic pseudo-random signs (splitmix64 of the index).
 double pseudoSign(std::uint64_t i) {
   std::uint64_t z = i + 0x9E3779B97F4A7C15ull;
@@ -416,7 +419,8 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     int pathSteps = 0;            // load steps kept (jumps past critical points included)
     // The prediction of a load step: the secant through the last two
     // equilibria of the path, scaled to the step, when there are two
-    // (`lastKept`: the vertex part of the last step kept, over
+    // (`lastKept`: the last step kept, its twists only where no chart was
+    // re-anchored along it, over
     // `lastKeptLength` of load; not after a critical point, `afterJump`),
     // the corrector starting from the predicted state; the
     // tangent otherwise (the first Newton step from the last equilibrium).
@@ -496,7 +500,9 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
       if (deviation >= 0.0) {
         ++pathSteps;
         lastKept = uTry - uCur;
-        lastKept.tail(lastKept.size() - nv).setZero();  // twists live in charts that may have moved
+        // Twists are angles in their edges' charts: their change along the
+        // step predicts the next one unless a chart was re-anchored.
+        if (!sameCharts(charts, chartsCur)) lastKept.tail(lastKept.size() - nv).setZero();
         lastKeptLength = next - lam;
         afterJump = false;
         lam = next;
@@ -574,7 +580,7 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
           // No secant across a jump; a smallest step that passed no critical
           // point is as good a secant as any.
           lastKept = uTry - uCur;
-          lastKept.tail(lastKept.size() - nv).setZero();
+          if (!sameCharts(charts, chartsCur)) lastKept.tail(lastKept.size() - nv).setZero();
           lastKeptLength = beyond - lam;
           afterJump = critical;
           lam = beyond;
