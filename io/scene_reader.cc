@@ -3,6 +3,7 @@
 #include "io/json_text.hh"
 #include "model/limits.hh"
 
+#include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
 #include <fcntl.h>
@@ -22,6 +23,12 @@
 
 namespace rodmesh {
 namespace {
+
+// Sine of the angle below which a reference normal counts as lying along an
+// edge: far below any surface normal's angle to its rods, far above the
+// 1e-6 at which the edge frame falls back to an arbitrary perpendicular
+// (model/network.cc, edgeFrameFromNormal).
+constexpr double kNormalAlongEdgeSine = 1e-4;
 
 using json = nlohmann::json;
 
@@ -299,6 +306,40 @@ Scene parseScene(const std::string& text, const std::string& path) {
     for (std::size_t v = 0; v < nv; ++v)
       if (interiorUse[v] < 0 && endUse[v] < 0)
         root["vertices"].at(v).fail("vertex " + std::to_string(v) + " belongs to no rod");
+    // A reference normal orients the cross section in the plane
+    // perpendicular to the rod: along an edge it leaves that plane
+    // undefined (the edge's normal is the mean of its ends', as in
+    // model/network.cc).
+    auto alongEdge = [&](const Vec3& n, int a, int b) {
+      const Vec3 t = (s.vertices[b] - s.vertices[a]).normalized();
+      return n.cross(t).norm() < kNormalAlongEdgeSine;
+    };
+    auto edgeText = [&](std::size_t r, int a, int b) {
+      return "edge " + std::to_string(a) + "-" + std::to_string(b) + " of rods[" + std::to_string(r) + "]";
+    };
+    for (std::size_t r = 0; r < s.rods.size(); ++r) {
+      const std::vector<int>& vs = s.rods[r].vertices;
+      for (std::size_t i = 0; i + 1 < vs.size(); ++i) {
+        const int a = vs[i], b = vs[i + 1];
+        if (!s.normals.empty()) {
+          Vec3 na = s.normals[a], nb = s.normals[b];
+          if (na.dot(nb) < 0) nb = -nb;
+          const Vec3 n = (na + nb).norm() > 1e-12 ? Vec3((na + nb).normalized()) : na;
+          if (alongEdge(n, a, b)) {
+            const int v = alongEdge(na, a, b) ? a : b;
+            Node bad = root["normals"].at(static_cast<std::size_t>(v));
+            bad.fail("normal " + bad.shortDump() + " of vertex " + std::to_string(v) + " lies along " +
+                     edgeText(r, a, b) +
+                     "; a reference normal must point away from its rods (it orients their cross sections)");
+          }
+        } else if (s.rods[r].normal && alongEdge(*s.rods[r].normal, a, b)) {
+          Node bad = root["rods"].at(r)["normal"];
+          bad.fail("normal " + bad.shortDump() + " lies along " + edgeText(r, a, b) +
+                                             "; a reference normal must point away from its rod (it orients its "
+                                             "cross sections)");
+        }
+      }
+    }
   }
 
   // Cross sections.

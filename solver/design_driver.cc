@@ -487,8 +487,9 @@ bool DesignDriver::seedTowardsDesigned(const std::vector<PoseState>& path, std::
   return false;
 }
 
-// startFromTargets: the objective ratio a target's rest shape must beat.
-constexpr double kTargetStartGain = 0.5;
+// startFromTargets: the objective ratio a target's rest shape must beat
+// (a quarter of the objective: half the RMS).
+constexpr double kTargetStartGain = 0.25;
 
 std::string DesignDriver::startFromTargets() {
   if (!scene_.design.restShape || !opt_.startFromTargets) return "";
@@ -498,8 +499,8 @@ std::string DesignDriver::startFromTargets() {
   const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Eigen::SparseMatrix<double>(W.transpose() * W));
   if (ldlt.info() != Eigen::Success) return "";
   // A target's rest shape replaces the scene's only when it at least halves
-  // the objective: the scene's rest shape is the designer's, and a start
-  // only marginally better from rest need not lie in a better basin
+  // the RMS: the scene's rest shape is the designer's, and a start only
+  // somewhat better from rest need not lie in a better basin
   // (docs/optimization.md, "The start").
   OnPathDesign best = bestOnPath_;
   best.objective *= kTargetStartGain;

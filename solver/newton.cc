@@ -250,6 +250,16 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
     system.evaluate(PoseState{rest.u, state.charts, 1.0, {}}, design, &g1, nullptr);
     const Eigen::VectorXd r0 = system.forceResidual(g0), r1 = system.forceResidual(g1);
     noLoad = r0.allFinite() && r1.allFinite() && (r1 - r0).stableNorm() <= r0.stableNorm();
+    // And that force is round-off: no larger than the stiffness times the
+    // structure's size at a relative 1e6 machine epsilons. A rest state out
+    // of equilibrium without any load (a model inconsistent at rest) is
+    // solved, not returned as its own equilibrium.
+    if (noLoad && r0.stableNorm() > 0.0) {
+      Eigen::SparseMatrix<double> K;
+      system.evaluate(PoseState{rest.u, state.charts, 0.0, {}}, design, nullptr, &K);
+      const double stiffness = K.diagonal().cwiseAbs().maxCoeff();
+      noLoad = r0.stableNorm() <= 1e6 * kEps * stiffness * structureSize(system, design, rest);
+    }
   }
   if (noLoad) {
     // No load at all: the rest configuration is the equilibrium.

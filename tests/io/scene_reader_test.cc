@@ -283,6 +283,22 @@ TEST(SceneReaderErrors, ZeroNormal) {
   expectMessage(errorOf(j), "normals[2]", {"got [0,0,0]"});
 }
 
+// A normal along its rod leaves the cross section's orientation undefined
+// (the frame fell back to an arbitrary perpendicular, and the rest state was
+// no equilibrium: a 3D solve returned it as "converged" with a 39 N residual).
+TEST(SceneReaderErrors, NormalAlongItsRod) {
+  json j = baseScene();
+  j["normals"] = json::parse("[[0,0,1],[0,0,1],[1,0,0],[1,1e-6,0]]");
+  expectMessage(errorOf(j), "normals[2]", {"[1,0,0]", "edge 2-3 of rods[0]"});
+  // Tilted by 1e-3 rad it orients the section: accepted.
+  j["normals"] = json::parse("[[0,0,1],[0,0,1],[1,0.001,0],[1,0.001,0]]");
+  EXPECT_NO_THROW(parseScene(j.dump(), kFile));
+  // A rod-level normal along the rod, without vertex normals.
+  json r = baseScene();
+  r["rods"][0]["normal"] = {-2, 0, 0};
+  expectMessage(errorOf(r), "rods[0].normal", {"[-2,0,0]", "edge 0-1 of rods[0]"});
+}
+
 TEST(SceneReaderErrors, MissingRadiusAndRadii) {
   json j = baseScene();
   j.erase("radius");
