@@ -138,6 +138,17 @@ Stability stability(const PoseSystem& system, const Design& design, const PoseSt
   if (!ldlt.factorize(K)) return out;
   out.ok = true;
   out.negative = ldlt.negative();
+  // A pivot's sign says which side of zero its eigenvalue lies only up to
+  // round-off: with a zero-stiffness mode the scaled matrix can show a
+  // negative pivot that Newton's (unscaled) factorization did not. Negative
+  // eigenvalues are those below minus the zero-mode round-off (zeroMode()),
+  // counted by the pivots of K shifted up by it (Sylvester's law of inertia).
+  if (out.negative > 0) {
+    Eigen::SparseMatrix<double> shifted = K;
+    for (int i = 0; i < n; ++i) shifted.coeffRef(i, i) += kPivotRoundoff * kEps * out.largestDiagonal;
+    ModifiedLdlt check;
+    if (check.factorize(shifted)) out.negative = std::min(out.negative, check.negative());
+  }
   // Inverse iteration: converges to the eigenvalue of smallest magnitude.
   Eigen::VectorXd x(n);
   for (int i = 0; i < n; ++i) x[i] = pseudoSign(static_cast<std::uint64_t>(i)) * (1.0 + 0.5 * std::sin(0.37 * i));

@@ -1185,6 +1185,29 @@ TEST_F(HardStatics, HingedSheetUnderAWeakCornerForceSwingsAllTheWay) { hingedShe
 // Under a force of 1 uN the swing takes more Newton iterations than the
 // resumed runs allow (11 runs of --max-iter, 100 each): the run stops at the
 // rest state and says why (a mechanism, and what to hold).
+// A 3 x 3-cell hex sheet of rods r = 0.5 mm held along its left side by
+// `fixed` (a hinge: its rotation about that line has no stiffness), sheared
+// by 0.01 N in its plane on its right side, in 3D (acceptance sweep 2;
+// tests/hard/data/hinged_sheet_sheared.json). Newton converged on the
+// in-plane state without meeting negative curvature, but the stability
+// test's scaled stiffness showed the hinge's zero mode as one negative
+// pivot: archived "converged" and UNSTABLE, smallest eigenvalue
+// +1.1e-13 N/m. Negative eigenvalues are those below the zero mode's
+// round-off, counted on the stiffness shifted by it.
+TEST_F(HardStatics, HingedSheetShearedInItsPlaneIsStableWithAZeroMode) {
+  const RunResult run = this->run("simulate " +
+                                  clitest::shellQuote(std::string(RODMESH_SOURCE_DIR) +
+                                                      "/tests/hard/data/hinged_sheet_sheared.json") +
+                                  " -o out.h5");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const Archive a = archive();
+  EXPECT_EQ(a.status, "converged");
+  ASSERT_EQ(a.poses.size(), 1u);
+  EXPECT_EQ(a.poses[0].stable, 1);
+  ASSERT_TRUE(a.poses[0].smallestEigenvalue.has_value());
+  EXPECT_LT(std::abs(*a.poses[0].smallestEigenvalue), 1e-9) << "the hinge has no stiffness";
+}
+
 TEST_F(HardStatics, HingedSheetUnderAMicronewtonSaysItIsAMechanism) {
   int corner = 0;
   double hingeX = 0.0;
