@@ -174,15 +174,34 @@ const std::vector<std::string>& lastSceneWarnings() { return g_warnings; }
 
 std::string printableText(const std::string& text, std::size_t limit) {
   std::string out;
-  for (std::size_t i = 0; i < text.size() && i < limit; ++i) {
+  auto escape = [&](unsigned char c) {
+    char buf[8];
+    std::snprintf(buf, sizeof buf, "\\x%02x", c);
+    out += buf;
+  };
+  const std::size_t end = std::min(text.size(), limit);
+  for (std::size_t i = 0; i < end; ++i) {
     const unsigned char c = static_cast<unsigned char>(text[i]);
     if (c < 0x20 || c == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", c);
-      out += buf;
-    } else {
-      out.push_back(static_cast<char>(c));
+      escape(c);
+      continue;
     }
+    if (c < 0x80) {
+      out.push_back(static_cast<char>(c));
+      continue;
+    }
+    // A whole UTF-8 sequence is kept (messages stay valid UTF-8 for
+    // terminals and logs); a byte that starts none (binary input, e.g. an
+    // archive given as a scene) is escaped.
+    const std::size_t len = (c & 0xE0) == 0xC0 && c >= 0xC2 ? 2 : (c & 0xF0) == 0xE0 ? 3 : (c & 0xF8) == 0xF0 && c <= 0xF4 ? 4 : 0;
+    bool whole = len > 0 && i + len <= end;
+    for (std::size_t k = 1; whole && k < len; ++k) whole = (static_cast<unsigned char>(text[i + k]) & 0xC0) == 0x80;
+    if (!whole) {
+      escape(c);
+      continue;
+    }
+    out.append(text, i, len);
+    i += len - 1;
   }
   return text.size() > limit ? out + "..." : out;
 }
@@ -435,6 +454,14 @@ Scene parseScene(const std::string& text, const std::string& path) {
           ClampedVertex c;
           c.vertex = e["vertex"].index(nv, "vertex");
           if (!clampedHere.insert(c.vertex).second) e["vertex"].fail("vertex " + std::to_string(c.vertex) + " is clamped twice");
+          // A clamped vertex stays at its rest position (and orientation): a
+          // position prescribed elsewhere by `fixed` would be dropped.
+          for (std::size_t k = 0; k < pose.fixed.size(); ++k)
+            if (pose.fixed[k].vertex == c.vertex && pose.fixed[k].position &&
+                *pose.fixed[k].position != s.vertices[static_cast<std::size_t>(c.vertex)])
+              e["vertex"].fail("vertex " + std::to_string(c.vertex) + " is also held at another position than its "
+                               "rest position by " + held[c.vertex] + "; a clamped vertex stays at its rest position "
+                               "and orientation (prescribe a position with `fixed` alone)");
           pose.clamped.push_back(c);
         }
       }

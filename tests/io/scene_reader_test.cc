@@ -299,6 +299,31 @@ TEST(SceneReaderErrors, NormalAlongItsRod) {
   expectMessage(errorOf(r), "rods[0].normal", {"[-2,0,0]", "edge 0-1 of rods[0]"});
 }
 
+// A vertex clamped and fixed at another position: the clamp keeps it at
+// rest, and the position was dropped without a word (acceptance sweep 2).
+// Fixed at its rest position, or without a position, it is merely held twice.
+TEST(SceneReaderErrors, ClampedVertexFixedElsewhere) {
+  json j = baseScene();
+  j["poses"][0]["fixed"] = json::parse(R"([{"vertex": 0, "position": [0, 0, 0.01]}])");
+  expectMessage(errorOf(j), "poses[0].clamped[0].vertex", {"vertex 0", "poses[0].fixed[0]"});
+  j["poses"][0]["fixed"] = json::parse(R"([{"vertex": 0, "position": [0, 0, 0]}])");
+  EXPECT_NO_THROW(parseScene(j.dump(), kFile));
+  j["poses"][0]["fixed"] = json::parse(R"([{"vertex": 0}])");
+  EXPECT_NO_THROW(parseScene(j.dump(), kFile));
+}
+
+// Binary input (an HDF5 archive given as a scene starts with byte 0x89)
+// is echoed escaped, so that the message is valid UTF-8; UTF-8 text is kept.
+TEST(SceneReaderErrors, MessagesEscapeBytesThatAreNotUtf8) {
+  EXPECT_EQ(printableText("\x89HDF\r\n"), "\\x89HDF\\x0d\\x0a");
+  EXPECT_EQ(printableText("caf\xc3\xa9 \xe2\x80\x94"), "caf\xc3\xa9 \xe2\x80\x94");
+  EXPECT_EQ(printableText("\xc3("), "\\xc3(");
+  EXPECT_EQ(printableText("ab\xc3\xa9", 3), "ab\\xc3...");
+  const std::string msg = errorOf(std::string("\x89HDF\r\n\x1a\n"));
+  EXPECT_NE(msg.find("\\x89"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\x89'), std::string::npos) << msg;
+}
+
 TEST(SceneReaderErrors, MissingRadiusAndRadii) {
   json j = baseScene();
   j.erase("radius");
