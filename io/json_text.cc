@@ -67,8 +67,16 @@ class PathSax : public nlohmann::json_sax<json> {
   bool binary(binary_t& v) override { return place(json::binary(std::move(v))) != nullptr; }
   bool start_object(std::size_t) override { return open(json::object(), false); }
   bool key(string_t& k) override {
-    frames_.back().key = k;
-    frames_.back().hasKey = true;
+    Frame& f = frames_.back();
+    if (f.value->contains(k)) {
+      // A second value for a key would silently replace the first.
+      f.key = k;
+      f.hasKey = true;
+      duplicate_ = path();
+      return false;
+    }
+    f.key = k;
+    f.hasKey = true;
     return true;
   }
   bool end_object() override { return close(); }
@@ -84,6 +92,8 @@ class PathSax : public nlohmann::json_sax<json> {
   }
 
   bool failed() const { return failed_; }
+  // The key path of a key given twice in one object ("" if none).
+  const std::string& duplicate() const { return duplicate_; }
   std::size_t position() const { return position_; }
   const std::string& token() const { return token_; }
   int id() const { return id_; }
@@ -144,7 +154,7 @@ class PathSax : public nlohmann::json_sax<json> {
   std::vector<Frame> frames_;
   bool failed_ = false;
   std::size_t position_ = 0;
-  std::string token_, what_;
+  std::string token_, what_, duplicate_;
   int id_ = 0;
 };
 
@@ -237,6 +247,9 @@ json parseJsonText(const std::string& text, const std::string& path) {
   PathSax sax(doc);
   const bool ok = json::sax_parse(text, &sax);
   if (ok && !sax.failed()) return doc;
+  if (!sax.duplicate().empty())
+    throw InputError(path + ": " + printableText(sax.duplicate(), 240) +
+                     ": key given twice in the same object (the second value would replace the first)");
   const std::string where = sax.path();
   if (sax.id() == 406) {
     // A number beyond the double range: name it and where it is.

@@ -89,6 +89,19 @@ TEST(SceneReaderErrors, UnparseableJsonGivesLineAndColumn) {
   EXPECT_TRUE(contains(msg, "line 3, column 16")) << msg;
 }
 
+// A key given twice in one object: the parser kept the last value without a
+// word (acceptance sweep 2). Named by its key path.
+TEST(SceneReaderErrors, DuplicateKey) {
+  std::string text = baseScene().dump();
+  text.insert(text.rfind('}'), R"(,"radius":[0.003,0.003])");
+  expectMessage(errorOf(text), "radius", {"twice"});
+  std::string nested = baseScene().dump();
+  const std::size_t name = nested.find(R"("name":"tip")");
+  ASSERT_NE(name, std::string::npos);
+  nested.insert(name, R"("name":"first",)");
+  expectMessage(errorOf(nested), "poses[0].name", {"twice"});
+}
+
 TEST(SceneReaderErrors, TruncatedJson) {
   std::string text = baseScene().dump(1);
   text.resize(text.size() / 2);
