@@ -215,6 +215,22 @@ def test_optimize_reduced_with_cli_flags(tmp_path):
     assert str(e.value) == message
 
 
+SHELL = os.path.join(ROOT, "tests", "cli", "shell_targets_small.json")
+
+
+def test_scene_start_is_the_clis_flag(tmp_path):
+    # Shell-made targets: by default the run starts from the rest shape of
+    # the pushed pose's target (docs/optimization.md, "The start");
+    # scene_start=True, like --scene-start, keeps the scene's.
+    out = tmp_path / "cli.h5"
+    cli("optimize", SHELL, "-o", str(out), "--max-iter", "1", "--scene-start")
+    r = rodmesh.optimize(SHELL, max_iter=1, scene_start=True)
+    assert "the run started from" not in r.message
+    assert_same_result(r, rodmesh.load_archive(out))
+    d = rodmesh.optimize(SHELL, max_iter=1)
+    assert "the run started from the rest shape of pose 'lift_twist_push''s target" in d.message
+
+
 def test_callback_sees_every_iteration_and_false_stops(small_cli):
     seen = []
 
