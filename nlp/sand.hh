@@ -38,6 +38,12 @@ struct SandOptions {
   double divergedLoads = 100.0;
   int divergedIterates = 3;
   double divergedDualInfeasibility = 1e10;
+  // Also when `wanderingIterates` iterates in a row are none of them nearly
+  // feasible (off equilibrium by more than 1e-3 of the smallest pose load):
+  // iterates that stay tens of loads off equilibrium, below the threshold
+  // above, can wander for the whole iteration cap without coming back, and
+  // the phase's best nearly feasible iterate is then the one to go on from.
+  int wanderingIterates = 200;
   // The retry of a diverged phase keeps its iterates within this 1-norm of
   // the scaled constraints (Ipopt's theta_max_fact, default 1e4): steps that
   // leave equilibrium further are cut by the filter line search.

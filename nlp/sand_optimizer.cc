@@ -532,6 +532,7 @@ PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext&
   std::pair<double, std::vector<double>> bestIterate{std::numeric_limits<double>::infinity(), {}};
   bool nearlyConverged = false, targetsMet = false, stalled = false, diverging = false;
   int farOff = 0;  // iterates in a row more than divergedLoads off equilibrium
+  int offEquilibrium = 0;  // iterates in a row none of them nearly feasible (wanderingIterates)
   // Progress of the settled iterates (within 1e-5 of the load of
   // equilibrium: Newton's polish makes them equilibria); the phase starts at
   // an equilibrium.
@@ -575,7 +576,9 @@ PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext&
     stalled = iter > 0 && stall.stalled();
     nearlyConverged = nearlyConverged || targetsMet || stalled;
     farOff = it.constraintViolation > so_.divergedLoads * maxLoad_ ? farOff + 1 : 0;
-    diverging = farOff >= so_.divergedIterates || !(infDu <= so_.divergedDualInfeasibility);
+    offEquilibrium = iter > 0 && it.constraintViolation > 1e-3 * minLoad_ ? offEquilibrium + 1 : 0;
+    diverging = farOff >= so_.divergedIterates || !(infDu <= so_.divergedDualInfeasibility) ||
+                offEquilibrium >= so_.wanderingIterates;
     // The best nearly feasible iterate, the other candidate at the phase end
     // (a limit may stop Ipopt anywhere).
     if (it.constraintViolation <= 1e-3 * minLoad_ && it.objective < bestIterate.first) {
@@ -680,6 +683,7 @@ PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext&
 std::string SandOptions::isValid() const {
   if (!(divergedLoads > 0) || !std::isfinite(divergedLoads)) return "SAND: the divergence threshold (loads) must be positive";
   if (divergedIterates < 1) return "SAND: the divergence window must be at least 1 iterate";
+  if (wanderingIterates < 1) return "SAND: the window of iterates off equilibrium must be at least 1 iterate";
   if (!(divergedDualInfeasibility > 0)) return "SAND: the divergence threshold (dual infeasibility) must be positive";
   if (!(retryThetaMaxFact > 0) || !std::isfinite(retryThetaMaxFact))
     return "SAND: theta_max_fact of a retried phase must be positive";

@@ -135,6 +135,27 @@ TEST(SandRecovery, ADivergedPhaseIsRunAgainByNewtonCg) {
   EXPECT_NE(held.message.find("also in its retry"), std::string::npos) << held.message;
 }
 
+// A phase whose iterates stay off equilibrium (by more than 1e-3 of the
+// smallest load) for wanderingIterates in a row, without ever passing the
+// divergence threshold of 100 loads, is run again like a diverged one
+// (forced here with a window of one iterate): the run says so and
+// recovers the hidden design.
+TEST(SandRecovery, APhaseWanderingOffEquilibriumIsRunAgainByNewtonCg) {
+  const HiddenBothSheet sheet;
+  const SceneModel& model = sheet.model;
+  const DesignSpace& space = sheet.space;
+  const testutil::HiddenDesignProblem& pr = sheet.pr;
+  SandOptions o = recoveryOptions(Schedule::Joint);
+  o.warmupIterations = 0;
+  o.wanderingIterates = 1;
+  const DesignOptimizerResult r = optimizeSand(model, space, o);
+  EXPECT_EQ(r.outcome, Outcome::Converged) << r.message;
+  EXPECT_NE(r.message.find("run again by the reduced Newton-CG method"), std::string::npos) << r.message;
+  EXPECT_LT(resolvedRms(model, pr.scene, r.design), 0.05 * r.initialRms) << r.message;
+  o.wanderingIterates = 0;
+  EXPECT_NE(o.isValid(), "");
+}
+
 // With the rest shape free and default options, the run stays near
 // equilibrium from the BFGS start to the end (no diverged phase, no
 // retry) and recovers the hidden design. Ipopt's initial multipliers are
