@@ -159,8 +159,9 @@ class DesignDriver {
   // With the rest shape free: the rest shapes in which one pose's target is
   // the unloaded shape (the least-squares fit of the control displacements
   // to that target), each solved along its loading path from rest; the best
-  // becomes the run's start when it does better than the initial design.
-  // Returns what the message says of it (empty: the initial design stays).
+  // becomes the run's start when it halves the initial design's RMS
+  // (kTargetStartGain). Returns what the message says of it (empty: the
+  // initial design stays).
   std::string startFromTargets();
   // Newton from `states` under `d` (timed as model evaluations), then f and
   // the RMS there; false when a pose fails or f is not finite.
