@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
 #include <Eigen/SparseQR>
 #include <algorithm>
 #include <cassert>
@@ -355,6 +356,22 @@ std::string DesignSpace::describe() const {
   }
   if (planar_) os << "; planar rest shape (2 displacement components per node)";
   return os.str();
+}
+
+bool DesignSpace::fitControls(const Eigen::MatrixXd& vertexField, Eigen::MatrixXd& controls) const {
+  if (vertexField.rows() != W_.rows()) return false;
+  // A rod with fewer interior vertices than interior control points leaves
+  // some controls (or combinations of them) without any vertex: W^T W is
+  // then singular. A shift far below its entries (at most the vertex count)
+  // picks the fit of least norm there and changes a full-rank fit only at
+  // round-off.
+  Eigen::SparseMatrix<double> normal = W_.transpose() * W_;
+  const double shift = 1e-12 * std::max(1.0, normal.diagonal().maxCoeff());
+  for (int i = 0; i < normal.rows(); ++i) normal.coeffRef(i, i) += shift;
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(normal);
+  if (ldlt.info() != Eigen::Success) return false;
+  controls = ldlt.solve(Eigen::MatrixXd(W_.transpose() * vertexField));
+  return ldlt.info() == Eigen::Success && controls.allFinite();
 }
 
 }  // namespace rodmesh

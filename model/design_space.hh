@@ -99,6 +99,11 @@ class DesignSpace {
   const std::vector<double>& rodArcFractions(int rod) const { return rodArcFractions_[rod]; }
   // W: V x C interpolation weights, vertex values = W * control values.
   const Eigen::SparseMatrix<double, Eigen::RowMajor>& interpolation() const { return W_; }
+  // Control values (C x k) whose interpolation best fits a per-vertex field
+  // (V x k), in the least-squares sense (the normal equations of W, the
+  // fit of least norm where controls reach no vertex); false when the fit
+  // fails or is not finite.
+  bool fitControls(const Eigen::MatrixXd& vertexField, Eigen::MatrixXd& controls) const;
 
   // --- Levels ------------------------------------------------------------
   int numLevels() const { return static_cast<int>(degrees_.size()); }

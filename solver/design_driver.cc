@@ -4,7 +4,6 @@
 #include "solver/format.hh"
 #include "solver/parallel.hh"
 
-#include <Eigen/SparseCholesky>
 
 #include <algorithm>
 #include <chrono>
@@ -432,12 +431,8 @@ bool DesignDriver::seedTowardsDesigned(const std::vector<PoseState>& path, std::
   const double tolerance = designedEquilibriumTolerance(res_.rms, structureSize());
   std::sort(order.begin(), order.end());
   // Control displacements whose interpolation fits it (least squares).
-  const Eigen::SparseMatrix<double> W = space_.interpolation();
-  const Eigen::SparseMatrix<double> normal = W.transpose() * W;
-  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(normal);
-  if (ldlt.info() != Eigen::Success) return false;
-  const Eigen::MatrixXd delta = ldlt.solve(W.transpose() * gapField);
-  if (ldlt.info() != Eigen::Success || !delta.allFinite()) return false;
+  Eigen::MatrixXd delta;
+  if (!space_.fitControls(gapField, delta)) return false;
   for (const double fraction : {0.03, 0.1, 0.3}) {
     ControlValues c = res_.controls;
     c.displacement += fraction * delta;
@@ -496,9 +491,6 @@ std::string DesignDriver::startFromTargets() {
   if (!scene_.design.restShape || !opt_.startFromTargets) return "";
   const int K = model_.numPoses();
   const int nv = space_.numVertices();
-  const Eigen::SparseMatrix<double> W = space_.interpolation();
-  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Eigen::SparseMatrix<double>(W.transpose() * W));
-  if (ldlt.info() != Eigen::Success) return "";
   // A target's rest shape replaces the scene's only when it at least halves
   // the RMS: the scene's rest shape is the designer's, and a start only
   // somewhat better from rest need not lie in a better basin
@@ -515,8 +507,8 @@ std::string DesignDriver::startFromTargets() {
     // its in-plane part).
     Eigen::MatrixXd field(nv, 3);
     for (int v = 0; v < nv; ++v) field.row(v) = (pose.target[v] - scene_.vertices[v]).transpose();
-    const Eigen::MatrixXd delta = ldlt.solve(W.transpose() * field);
-    if (ldlt.info() != Eigen::Success || !delta.allFinite()) continue;
+    Eigen::MatrixXd delta;
+    if (!space_.fitControls(field, delta)) continue;
     ControlValues c = res_.controls;
     c.displacement = delta;
     const Design d = space_.toDesign(c);

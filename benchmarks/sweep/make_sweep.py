@@ -22,14 +22,15 @@ import subprocess
 import sys
 import tempfile
 
-import h5py
 import numpy as np
 
 RODMESH = "rodmesh"
 
-
-class Failure(Exception):
-    pass
+# The study's helpers (benchmarks/study): simulate and its Failure, the
+# design space's Bernstein weights and arc fractions.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "study"))
+from make_scenes import Failure, simulate as study_simulate  # noqa: E402
+from sweeps_scenes import bernstein, rod_arc_fractions  # noqa: E402
 
 
 # ------------------------------------------------------------------ helpers
@@ -41,23 +42,8 @@ def run(cmd):
 
 
 def simulate(scene, tmp, tag, require=True):
-    path = os.path.join(tmp, tag + ".json")
-    json.dump(scene, open(path, "w"))
-    out = path[:-5] + ".h5"
-    r = subprocess.run([RODMESH, "simulate", path, "-o", out, "-q"], stdout=subprocess.PIPE,
-                       stderr=subprocess.PIPE, text=True)
-    if r.returncode not in (0, 1) or not os.path.exists(out):
-        raise Failure("simulate %s: exit %d %s" % (tag, r.returncode, r.stderr[-1500:]))
-    res = {}
-    with h5py.File(out, "r") as f:
-        for p in scene["poses"]:
-            g = f["poses"][p["name"]]
-            st = g.attrs["status"]
-            st = st.decode() if isinstance(st, bytes) else str(st)
-            if require and st != "converged":
-                raise Failure("simulate %s pose %s: %s %s" % (tag, p["name"], st, f.attrs.get("message", "")))
-            res[p["name"]] = g["positions"][()]
-    return res
+    """{pose name: positions} of every pose (benchmarks/study/make_scenes.py)."""
+    return {name: q for name, (q, _) in study_simulate(RODMESH, scene, tmp, tag, require).items()}
 
 
 def base_from_mesh_output(path):
@@ -140,9 +126,7 @@ def saddle_obj(path, W=0.16, a=0.12):
 
 
 # design space: Bernstein per rod, control points at arc fractions j/(n-1)
-# (the study's helpers, benchmarks/study/sweeps_scenes.py)
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "study"))
-from sweeps_scenes import bernstein, rod_arc_fractions  # noqa: E402
+# (imported above from benchmarks/study/sweeps_scenes.py)
 
 
 def arc_fractions(V, rod):

@@ -190,6 +190,33 @@ TEST(DesignSpace, InterpolationWeights) {
 // End node values random, each rod's interior nodes on the straight line
 // between its end values (a + (b - a) k / d): every vertex value must be
 // a + (b - a) s with s the vertex's arc fraction, at every level.
+// fitControls: a field the controls represent is reproduced by the fit;
+// the residual of any other field is orthogonal to W's columns. The
+// network's shorter rods have fewer interior vertices than interior control
+// points (W^T W singular: the fit used to fail there), so the fitted
+// controls themselves are not unique; those that reach no vertex are zero.
+TEST(DesignSpace, FitControlsIsTheLeastSquaresFit) {
+  Fixture f(false, 4);
+  const DesignSpace& ds = f.space;
+  const auto& W = ds.interpolation();
+  Eigen::MatrixXd c(ds.numControlPoints(), 3);
+  for (int i = 0; i < c.rows(); ++i) c.row(i) << std::sin(1.3 * i), std::cos(0.7 * i), 0.1 * i;
+  Eigen::MatrixXd fit;
+  ASSERT_TRUE(ds.fitControls(W * c, fit));
+  EXPECT_LT((Eigen::MatrixXd(W * fit) - W * c).cwiseAbs().maxCoeff(), 1e-9);
+  Eigen::MatrixXd field(ds.numVertices(), 3);
+  for (int v = 0; v < field.rows(); ++v) field.row(v) << std::cos(2.1 * v), v % 3, std::sin(v);
+  ASSERT_TRUE(ds.fitControls(field, fit));
+  EXPECT_LT((Eigen::MatrixXd(W.transpose() * (W * fit - field))).cwiseAbs().maxCoeff(), 1e-9);
+  const Eigen::SparseMatrix<double> Wt = W.transpose();
+  for (int j = 0; j < Wt.outerSize(); ++j) {
+    double reach = 0.0;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(Wt, j); it; ++it) reach += std::abs(it.value());
+    if (reach == 0.0) EXPECT_EQ(fit.row(j).norm(), 0.0) << "control " << j;
+  }
+  EXPECT_FALSE(ds.fitControls(Eigen::MatrixXd::Zero(ds.numVertices() + 1, 3), fit));
+}
+
 TEST(DesignSpace, LinearReproductionAtEveryLevel) {
   for (int n = 2; n <= 6; ++n) {
     for (bool planar : {false, true}) {
