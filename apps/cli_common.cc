@@ -301,6 +301,12 @@ Archive optimizeArchive(const Scene& scene, const SceneModel& model, const Desig
     cp.arcFraction.push_back(c.arcFraction);
     cp.vertex.push_back(c.vertex);
   }
+  // The bound activity is the final design's; a fallback design has none.
+  if (!chosen.fallback && r.boundActivity.computed) {
+    const RadiusBoundActivity& b = r.boundActivity;
+    cp.radiusBounds = ArchiveControlPoints::RadiusBounds{b.lowerBound,      b.upperBound,     b.atLower,
+                                                         b.atUpper,         b.lowerElasticity, b.upperElasticity};
+  }
   a.controlPoints = cp;
   ArchiveOptimizeSummary s;
   s.method = method;

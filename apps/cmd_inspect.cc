@@ -53,6 +53,16 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
       std::printf("control   %zu points (%ld shared ends, %zu interior)%s%s\n", c.rod.size(), shared,
                   c.rod.size() - static_cast<std::size_t>(shared), c.radii.rows() ? ", radii" : "",
                   c.restDisplacement.rows() ? ", rest displacement" : "");
+      if (c.radiusBounds) {
+        const ArchiveControlPoints::RadiusBounds& b = *c.radiusBounds;
+        std::printf("bounds    radii %.4g..%.4g mm: %lld of %zu control radius values held at a bound (%lld at the "
+                    "minimum, %lld at the maximum)",
+                    b.min * 1e3, b.max * 1e3, b.atMin + b.atMax, 2 * c.rod.size(), b.atMin, b.atMax);
+        if (b.atMin + b.atMax > 0)
+          std::printf("; objective -%.2g%% per 1%% lower minimum, -%.2g%% per 1%% higher maximum (first order)",
+                      b.minElasticity, -b.maxElasticity);
+        std::printf("\n");
+      }
     }
     for (const ArchivePose& p : a.poses) {
       double maxDisp = 0.0;

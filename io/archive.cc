@@ -185,6 +185,15 @@ void writeContents(const Archive& a, hid_t file) {
       writeInts<int>(cp, "rod", c.rod, H5T_STD_I32LE, H5T_NATIVE_INT);
       writeDoubles(cp, "arc_fraction", c.arcFraction.data(), {(hsize_t)c.arcFraction.size()});
       if (!c.vertex.empty()) writeInts<int>(cp, "vertex", c.vertex, H5T_STD_I32LE, H5T_NATIVE_INT);
+      if (c.radiusBounds) {
+        const ArchiveControlPoints::RadiusBounds& b = *c.radiusBounds;
+        writeScalarAttr<double>(cp, "radius_min", b.min, H5T_NATIVE_DOUBLE);
+        writeScalarAttr<double>(cp, "radius_max", b.max, H5T_NATIVE_DOUBLE);
+        writeScalarAttr<long long>(cp, "radii_at_min", b.atMin, H5T_NATIVE_LLONG);
+        writeScalarAttr<long long>(cp, "radii_at_max", b.atMax, H5T_NATIVE_LLONG);
+        writeScalarAttr<double>(cp, "elasticity_min", b.minElasticity, H5T_NATIVE_DOUBLE);
+        writeScalarAttr<double>(cp, "elasticity_max", b.maxElasticity, H5T_NATIVE_DOUBLE);
+      }
     }
   }
   {

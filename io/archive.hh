@@ -121,6 +121,15 @@ struct ArchiveControlPoints {
   std::vector<int> rod;             // C: owning rod, -1 for a shared end control point
   std::vector<double> arcFraction;  // C: arc-length fraction along `rod` in [0, 1]; 0 for a shared end
   std::vector<int> vertex;          // extension, C: scene vertex of a shared end, -1 for an interior one
+  // Extension, attributes of /design/control_points when radii were free:
+  // how the radius bounds hold the design (solver/bound_activity.hh).
+  struct RadiusBounds {
+    double min = 0.0, max = 0.0;                    // radius_min, radius_max [m]: the bounds in use
+    long long atMin = 0, atMax = 0;                 // radii_at_min, radii_at_max: values of `radii` held there
+    double minElasticity = 0.0, maxElasticity = 0.0;  // elasticity_min (>= 0), elasticity_max (<= 0):
+                                                      // d ln f / d ln bound, first order
+  };
+  std::optional<RadiusBounds> radiusBounds;
 };
 
 // Root attributes written by optimize.

@@ -527,6 +527,16 @@ Archive readOpenFile(hid_t file, const std::string& name, std::uint64_t fileByte
         c.radii = rowsOf<2>(*v);
       if (auto v = r.numbers(cpg, cp, "rest_displacement", false, {n, 3}, std::to_string(n) + " x 3" + rows))
         c.restDisplacement = rowsOf<3>(*v);
+      if (auto lo = r.numberAttr(cpg, cp, "radius_min", false)) {
+        ArchiveControlPoints::RadiusBounds b;
+        b.min = *lo;
+        b.max = *r.numberAttr(cpg, cp, "radius_max", true);
+        b.atMin = *r.integerAttr(cpg, cp, "radii_at_min", true, 0, 2 * n);
+        b.atMax = *r.integerAttr(cpg, cp, "radii_at_max", true, 0, 2 * n);
+        b.minElasticity = *r.numberAttr(cpg, cp, "elasticity_min", true);
+        b.maxElasticity = *r.numberAttr(cpg, cp, "elasticity_max", true);
+        c.radiusBounds = b;
+      }
       a.controlPoints = std::move(c);
     }
   }
@@ -1014,6 +1024,21 @@ void validateArchive(const Archive& a, const Scene& scene, const std::string& pa
              "entry [" + std::to_string(i) + "] must lie in [0, 1], got " + num(c.arcFraction[i]));
     if (c.radii.rows() > 0) positive(c.radii, cp + "/radii");
     finite(c.restDisplacement.data(), c.restDisplacement.rows(), 3, cp + "/rest_displacement");
+    if (c.radiusBounds) {
+      const ArchiveControlPoints::RadiusBounds& b = *c.radiusBounds;
+      const std::string at = cp + " attribute ";
+      if (!(std::isfinite(b.min) && b.min > 0)) fail(at + "radius_min", "must be a positive radius, got " + num(b.min));
+      if (!(std::isfinite(b.max) && b.max >= b.min))
+        fail(at + "radius_max", "must be at least radius_min (" + num(b.min) + "), got " + num(b.max));
+      const long long values = 2 * static_cast<long long>(c.rod.size());
+      if (b.atMin + b.atMax > values)
+        fail(at + "radii_at_max", "is " + std::to_string(b.atMax) + " with radii_at_min " + std::to_string(b.atMin) +
+                                      ", more than the " + std::to_string(values) + " control radius values");
+      if (!(std::isfinite(b.minElasticity) && b.minElasticity >= 0))
+        fail(at + "elasticity_min", "must be finite and >= 0, got " + num(b.minElasticity));
+      if (!(std::isfinite(b.maxElasticity) && b.maxElasticity <= 0))
+        fail(at + "elasticity_max", "must be finite and <= 0, got " + num(b.maxElasticity));
+    }
   }
   if (a.history) {
     const ArchiveHistory& h = *a.history;

@@ -308,6 +308,19 @@ py::dict archiveDict(const Archive& a) {
     cp["rod"] = vec(c.rod);
     cp["arc_fraction"] = vec(c.arcFraction);
     cp["vertex"] = vec(c.vertex);
+    if (c.radiusBounds) {
+      const ArchiveControlPoints::RadiusBounds& b = *c.radiusBounds;
+      py::dict rb;
+      rb["min"] = b.min;
+      rb["max"] = b.max;
+      rb["at_min"] = b.atMin;
+      rb["at_max"] = b.atMax;
+      rb["elasticity_min"] = b.minElasticity;
+      rb["elasticity_max"] = b.maxElasticity;
+      cp["radius_bounds"] = rb;
+    } else {
+      cp["radius_bounds"] = py::none();
+    }
     d["control_points"] = cp;
   } else {
     d["control_points"] = py::none();

@@ -110,6 +110,12 @@ class DesignDriver {
       res_.usable = std::isfinite(r) && res_.states[k].u.allFinite() && res_.states[k].loadFactor == 1.0;
       res_.residualNorm = std::max(res_.residualNorm, r);
     }
+    // Where the targets are met the gradient is round-off: nothing holds the design back.
+    if (res_.usable && !interrupted() && res_.objective > kTargetsMetRatio * res_.initialObjective) {
+      res_.boundActivity = radiusBoundActivity(model_, space_, objective_, res_.controls, res_.states, opt_.newton);
+      const std::string held = describeBoundActivity(res_.boundActivity);
+      if (!held.empty()) res_.message += "; " + held;
+    }
     res_.timeSeconds = since(t0_);
     res_.solverSeconds = std::max(0.0, res_.timeSeconds - res_.evaluationSeconds);
     res_.peakMemoryBytes = peakResidentMemory();

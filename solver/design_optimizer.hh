@@ -26,6 +26,7 @@
 #include "model/design_space.hh"
 #include "model/outcome.hh"
 #include "solver/bfgs.hh"
+#include "solver/bound_activity.hh"
 #include "solver/design_fallback.hh"
 #include "solver/design_monitor.hh"
 #include "solver/equilibrium.hh"
@@ -199,6 +200,10 @@ struct DesignOptimizerResult : SolveSummary {
   // solved from rest with imperfectionGap and largestDisplacement set, for
   // the archive to reuse when it archives that design; empty when not run.
   SimulationResult imperfectionCheck;
+  // How much the radius bounds hold the final design back
+  // (solver/bound_activity.hh); not computed when radii are not free or the
+  // run has no usable equilibria.
+  RadiusBoundActivity boundActivity;
 };
 
 // The phases of a schedule (paper: radii level by level, then rounds of rest

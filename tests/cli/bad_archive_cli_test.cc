@@ -86,6 +86,8 @@ const std::vector<Damage> kDamage = {
     {"history_mismatch", "/history/objective: has shape 2", {"expected 3"}},
     {"control_rod_out_of_range", "/design/control_points/rod: entry [1] names rod 5", {}},
     {"control_arc_fraction", "/design/control_points/arc_fraction: entry [1]", {"[0, 1]", "2"}},
+    {"control_bound_counts", "/design/control_points attribute radii_at_max: is 2 with radii_at_min 3", {"4"}},
+    {"control_bound_elasticity", "/design/control_points attribute elasticity_min: must be finite", {"nan"}},
     {"frames_time_short", "/frames/small/positions: has shape 6 x 6 x 3", {"expected 5 x 6 x 3"}},
     {"frames_two_columns", "/frames/small/positions: has shape 6 x 6 x 2", {}},
     {"frames_time_backwards", "/frames/small/time: entry [1] = -1", {}},

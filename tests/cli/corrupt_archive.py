@@ -107,6 +107,19 @@ DAMAGE = {
     "control_arc_fraction": lambda f: (f["design"].create_group("control_points"),
                                        f["design/control_points"].create_dataset("rod", data=np.array([-1, 0], dtype="i4")),
                                        f["design/control_points"].create_dataset("arc_fraction", data=np.array([0.0, 2.0]))),
+    "control_bound_counts": lambda f: (f["design"].create_group("control_points"),
+                                       f["design/control_points"].create_dataset("rod", data=np.array([-1, 0], dtype="i4")),
+                                       f["design/control_points"].create_dataset("arc_fraction", data=np.array([0.0, 0.5])),
+                                       [f["design/control_points"].attrs.__setitem__(k, v) for k, v in
+                                        (("radius_min", 1e-3), ("radius_max", 5e-3), ("radii_at_min", 3),
+                                         ("radii_at_max", 2), ("elasticity_min", 0.5), ("elasticity_max", -0.5))]),
+    "control_bound_elasticity": lambda f: (f["design"].create_group("control_points"),
+                                           f["design/control_points"].create_dataset("rod", data=np.array([-1, 0], dtype="i4")),
+                                           f["design/control_points"].create_dataset("arc_fraction", data=np.array([0.0, 0.5])),
+                                           [f["design/control_points"].attrs.__setitem__(k, v) for k, v in
+                                            (("radius_min", 1e-3), ("radius_max", 5e-3), ("radii_at_min", 1),
+                                             ("radii_at_max", 0), ("elasticity_min", float("nan")),
+                                             ("elasticity_max", 0.0))]),
     # frames (dynamic archives)
     "frames_time_short": lambda f: replace(f, "frames/small/time", f["frames/small/time"][:-1]),
     "frames_two_columns": lambda f: replace(f, "frames/small/positions", f["frames/small/positions"][:, :, :2]),

@@ -322,8 +322,28 @@ TEST_F(OptimizeCli, ShellMadeTargetsStartFromTheRestShapeOfATarget) {
   for (const ArchivePose& p : a.poses) {
     const double ratio = rms({p}, false) / rms({p}, true);
     EXPECT_LT(ratio, 0.5) << p.name;
-    if (p.name == "lift_twist_push") EXPECT_LT(ratio, 0.15);
+    if (p.name == "lift_twist_push") {
+      EXPECT_LT(ratio, 0.15);
+    }
   }
+  // Radii pressed against the scene's bounds [1, 5] mm are reported: in the
+  // message, in /design/control_points and by inspect.
+  EXPECT_NE(a.optimize->message.find("control radii are held at a radius bound"), std::string::npos)
+      << a.optimize->message;
+  ASSERT_TRUE(a.controlPoints.has_value());
+  ASSERT_TRUE(a.controlPoints->radiusBounds.has_value());
+  const ArchiveControlPoints::RadiusBounds& held = *a.controlPoints->radiusBounds;
+  EXPECT_EQ(held.min, 1e-3);
+  EXPECT_EQ(held.max, 5e-3);
+  EXPECT_GT(held.atMin + held.atMax, 0);
+  EXPECT_GE(held.minElasticity, 0.0);
+  EXPECT_LE(held.maxElasticity, 0.0);
+  EXPECT_GT(held.minElasticity - held.maxElasticity, 0.0);
+  const std::string inspect = "cd " + clitest::shellQuote(dir_) + " && " + clitest::shellQuote(kExe) +
+                              " inspect out.h5 > inspect.txt 2>&1";
+  ASSERT_EQ(std::system(inspect.c_str()), 0);
+  EXPECT_NE(clitest::readText(path("inspect.txt")).find("bounds    radii 1..5 mm: "), std::string::npos)
+      << clitest::readText(path("inspect.txt"));
   // The scene's start, on request, says nothing of a start.
   ASSERT_TRUE(run("optimize shell.json -o scene_start.h5 --scene-start --max-iter 1", &err) <= 1) << err;
   const Archive b = readArchive(path("scene_start.h5"));

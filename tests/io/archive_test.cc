@@ -129,6 +129,7 @@ Archive fullArchive() {
   c.rod = {-1, 0, 0, -1};
   c.arcFraction = {0.0, 1.0 / 3.0, 2.0 / 3.0, 0.0};
   c.vertex = {0, -1, -1, 4};
+  c.radiusBounds = ArchiveControlPoints::RadiusBounds{5e-4, 2e-3, 3, 2, 0.75, -0.25};
   a.controlPoints = c;
   a.optimize = ArchiveOptimizeSummary{"sand", 42, 12.5, "stopped at --max-iter 42"};
   a.extraRootAttributes["solver"] = "ipopt 3.11";
@@ -210,6 +211,13 @@ TEST(Archive, RoundTripsEveryField) {
   EXPECT_EQ(b.controlPoints->rod, a.controlPoints->rod);
   EXPECT_EQ(b.controlPoints->arcFraction, a.controlPoints->arcFraction);
   EXPECT_EQ(b.controlPoints->vertex, a.controlPoints->vertex);
+  ASSERT_TRUE(b.controlPoints->radiusBounds.has_value());
+  EXPECT_EQ(b.controlPoints->radiusBounds->min, 5e-4);
+  EXPECT_EQ(b.controlPoints->radiusBounds->max, 2e-3);
+  EXPECT_EQ(b.controlPoints->radiusBounds->atMin, 3);
+  EXPECT_EQ(b.controlPoints->radiusBounds->atMax, 2);
+  EXPECT_EQ(b.controlPoints->radiusBounds->minElasticity, 0.75);
+  EXPECT_EQ(b.controlPoints->radiusBounds->maxElasticity, -0.25);
 
   ASSERT_TRUE(b.optimize.has_value());
   EXPECT_EQ(b.optimize->method, "sand");

@@ -229,6 +229,11 @@ def test_scene_start_is_the_clis_flag(tmp_path):
     assert_same_result(r, rodmesh.load_archive(out))
     d = rodmesh.optimize(SHELL, max_iter=1)
     assert "the run started from the rest shape of pose 'lift_twist_push''s target" in d.message
+    # How the radius bounds hold the design: Python reads what the CLI wrote.
+    b = r.design.control_points.radius_bounds
+    assert (b["min"], b["max"]) == (1e-3, 5e-3)
+    assert b["elasticity_min"] >= 0 >= b["elasticity_max"]
+    assert b == rodmesh.load_archive(out).design.control_points.radius_bounds
 
 
 def test_callback_sees_every_iteration_and_false_stops(small_cli):
