@@ -13,8 +13,9 @@
 // transport of u0 along t0 -> t1 to u1. Barred quantities are rest values
 // computed from the rest edges E0, E1 and the reference normals (theta = 0 at
 // rest). Non-smooth only where an edge is antiparallel to its chart tangent, where
-// two consecutive edges are antiparallel, or where psi - psī reaches +-pi (see
-// docs/model.md).
+// two consecutive edges are antiparallel, or where the twist
+// theta1 - theta0 + psi - psī reaches +-pi (a full half turn between two
+// edges; see docs/model.md).
 //
 // Local variables: x = e0 (3), e1 (3), theta0, theta1; p = E0 (3), E1 (3),
 // r_t, r_n at the vertex.
@@ -112,7 +113,12 @@ S bendTwistCombine(const BendTwistCurrent<S>& w, const S& th0, const S& th1, con
     energy = (wa1 * wa1 + wb1 * wb1) * r.kIn + (wa2 * wa2 + wb2 * wb2) * r.kOut;
   }
   if (c.twist) {
-    const S tau = th1 - th0 + wrapAngle(w.psi - r.psiRest);
+    // The pair's twist modulo 2 pi as a whole (the least angle carrying one
+    // material frame into the other): its two parts, the twist unknowns'
+    // difference and the reference twist, can each pass +-pi on a path along
+    // which their sum stays small (charts re-anchored on a sheet folded
+    // over), and wrapping one part alone made the energy jump there.
+    const S tau = wrapAngle(th1 - th0 + (w.psi - r.psiRest));
     energy = energy + tau * tau * r.kTwist;
   }
   return energy;

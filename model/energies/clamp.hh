@@ -58,8 +58,10 @@ S clampEnergy(const V3<S>& e, const S& th, const ClampRest<P>& r, const ClampCon
   }
   if (c.twist) {
     // Twist relative to the held frame: theta plus the angle from the held
-    // director transported to t to the reference director (zero for the rest chart).
-    const S tau = th + signedAngle(transportFromRest(r.F.t, t, r.F.d1), u, t);
+    // director transported to t to the reference director (zero for the rest
+    // chart), modulo 2 pi as a whole: with a re-anchored chart each part can
+    // pass +-pi while their sum stays small (bend_twist.hh).
+    const S tau = wrapAngle(th + signedAngle(transportFromRest(r.F.t, t, r.F.d1), u, t));
     energy = energy + tau * tau * r.kTwist;
   }
   return energy;

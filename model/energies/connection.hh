@@ -304,7 +304,8 @@ S connectionEdgeEnergyOfFrame(const FrameT<S>& Fb, const EdgeState<S>& st, const
     energy = (wf1 * wf1 + we1 * we1) * kIn + (wf2 * wf2 + we2 * we2) * kOut;
   }
   if (twist) {
-    const S tau = th + signedAngle(parallelTransport(Fb.t, st.t, Fb.d1), st.u, st.t);
+    // Modulo 2 pi as a whole, as at a clamp (clamp.hh, bend_twist.hh).
+    const S tau = wrapAngle(th + signedAngle(parallelTransport(Fb.t, st.t, Fb.d1), st.u, st.t));
     energy = energy + tau * tau * kTwist;
   }
   return energy;
