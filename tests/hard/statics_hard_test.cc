@@ -1208,6 +1208,54 @@ TEST_F(HardStatics, HingedSheetShearedInItsPlaneIsStableWithAZeroMode) {
   EXPECT_LT(std::abs(*a.poses[0].smallestEigenvalue), 1e-9) << "the hinge has no stiffness";
 }
 
+// A 100 x 100 mm hexagonal sheet of 0.5 mm rods (E = 32 MPa) clamped along
+// its left side, its right side loaded in its plane by 4 x 25 mN
+// (benchmarks/sweep2's planarclamped_hex_*_0.1N). Compressed, that is about
+// 85 times its buckling load: the sheet buckles out of plane at once and, as
+// the load grows, folds over its clamp until it points the other way (as a
+// cantilever elastica under a dead end load far above its critical one: a
+// loop at the clamp of about sqrt(EI / P) and the rest along the load).
+// Before, the loading path was lost there at positive stiffness (load factor
+// 0.65, exit 1): the charts of the turned edges were re-anchored, and the
+// twist of a clamp or a connection, taken as a twist unknown near -pi plus a
+// reference angle near +pi each modulo 2 pi, jumped by 2 pi on the next
+// steps (tests/model/chart_invariance_test.cc).
+TEST_F(HardStatics, ClampedSheetCompressedFarPastBucklingFoldsOverItsClamp) {
+  const std::string scene = std::string(RODMESH_SOURCE_DIR) + "/tests/hard/data/clamped_sheet_compressed.json";
+  const RunResult run = this->run("simulate " + clitest::shellQuote(scene) + " -o out.h5");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const Archive a = archive();
+  EXPECT_EQ(a.status, "converged");
+  ASSERT_EQ(a.poses.size(), 1u);
+  const ArchivePose& p = a.poses[0];
+  EXPECT_EQ(p.stable, 1);
+  ASSERT_TRUE(p.smallestEigenvalue.has_value());
+  EXPECT_GT(*p.smallestEigenvalue, 0.0);
+  EXPECT_GT(p.criticalPoints.rows(), 0) << "the path passes the buckling point";
+  // The loaded vertices (right side, x = +50 mm at rest) end behind the
+  // clamped side (x = -50 mm) by most of the sheet's 100 mm length.
+  for (int v : {6, 10, 20, 24}) {
+    EXPECT_LT(p.positions(v, 0), -0.05 - 0.08) << "vertex " << v;
+    EXPECT_GT(p.positions(v, 0), -0.05 - 0.1) << "vertex " << v;
+  }
+}
+
+// The same sheet sheared in its plane by 4 x 25 mN: it buckles out of plane
+// (a critical point at about 4% of the load) and carries the rest of the
+// load in a stable post-buckled state. Before, the path was lost at positive
+// stiffness for the same reason as above (load factor 0.3, exit 1).
+TEST_F(HardStatics, ClampedSheetShearedFarPastBucklingCarriesTheLoadStably) {
+  const std::string scene = std::string(RODMESH_SOURCE_DIR) + "/tests/hard/data/clamped_sheet_sheared.json";
+  const RunResult run = this->run("simulate " + clitest::shellQuote(scene) + " -o out.h5");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const Archive a = archive();
+  EXPECT_EQ(a.status, "converged");
+  ASSERT_EQ(a.poses.size(), 1u);
+  EXPECT_EQ(a.poses[0].stable, 1);
+  EXPECT_GT(a.poses[0].criticalPoints.rows(), 0) << "the path passes the buckling point";
+  EXPECT_LT(a.poses[0].residualNorm, 1e-8);
+}
+
 TEST_F(HardStatics, HingedSheetUnderAMicronewtonSaysItIsAMechanism) {
   int corner = 0;
   double hingeX = 0.0;
