@@ -266,15 +266,20 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
       // equilibrium under a small load (the rest state, or one small load
       // step beyond an equilibrium): its residual grows during the swing and
       // is not below its initial value until the end, while a stall gains
-      // ever less energy.
+      // ever less energy. Or the last tenth ends converging: its last
+      // residual a tenth of its largest or less (a descent from an unstable
+      // equilibrium, whose small initial residual the run cannot undercut
+      // before it arrives, settling into the state it fell towards).
       {
         const auto& hist = rep.residualHistory;
         const std::size_t tenth = std::max<std::size_t>(1, hist.size() / 10);
         const double before = *std::min_element(hist.begin(), hist.end() - tenth);
         const double recent = *std::min_element(hist.end() - tenth, hist.end());
+        const double recentMax = *std::max_element(hist.end() - tenth, hist.end());
         const double gainedRecently = energyAtTenth - E;
         rep.progressing = hist.size() > tenth && gainedRecently > 1e-12 * std::max(std::abs(E), 1e-300) &&
-                          (recent < before || (tenth >= 2 && gainedRecently >= 0.01 * (energyAtStart - E)));
+                          (recent < before || (tenth >= 2 && gainedRecently >= 0.01 * (energyAtStart - E)) ||
+                           (tenth >= 2 && hist.back() <= 0.1 * recentMax));
       }
       const bool saddle = opt.stableOnly && (small || atFloor) && negative > 0;
       rep.message = saddle ? "reached an unstable equilibrium (negative curvature persists) at the iteration limit"

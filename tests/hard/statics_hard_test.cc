@@ -1240,6 +1240,35 @@ TEST_F(HardStatics, ClampedSheetCompressedFarPastBucklingFoldsOverItsClamp) {
   }
 }
 
+// Ten times that load (about 800 times the buckling load): the smallest load
+// step (2^-10 of the load) already passes the buckling point, so the path's
+// first step beyond it starts at the flat, unstable state and descends all
+// the way into the folded one. That descent starts at a nearly zero residual
+// (an unstable equilibrium), which it cannot undercut until it arrives: it
+// used to be judged not progressing at the iteration limit and the path was
+// lost at load factor 2^-10 (exit 1), one residual decade from convergence.
+TEST_F(HardStatics, ClampedSheetCompressedFarBeyondItsSmallestLoadStepFoldsOverToo) {
+  const Scene tenth = readSceneFile(std::string(RODMESH_SOURCE_DIR) + "/tests/hard/data/clamped_sheet_compressed.json");
+  ASSERT_EQ(simulate(tenth).status, 0);
+  const Archive folded = archive();
+  Scene scene = tenth;
+  for (PointForce& f : scene.poses[0].forces) f.force *= 10.0;
+  const RunResult run = simulate(scene);
+  ASSERT_EQ(run.status, 0) << run.err;
+  const Archive a = archive();
+  EXPECT_EQ(a.status, "converged");
+  ASSERT_EQ(a.poses.size(), 1u);
+  const ArchivePose& p = a.poses[0];
+  EXPECT_EQ(p.stable, 1);
+  EXPECT_GT(p.criticalPoints.rows(), 0);
+  // Folded over its clamp as under the tenth, and further back: the folded
+  // sheet is in tension, and a honeycomb stretches by bending its rods.
+  for (int v : {6, 10, 20, 24}) {
+    EXPECT_LT(p.positions(v, 0), -0.05 - 0.08) << "vertex " << v;
+    EXPECT_LT(p.positions(v, 0), folded.poses[0].positions(v, 0)) << "vertex " << v;
+  }
+}
+
 // The same sheet sheared in its plane by 4 x 25 mN: it buckles out of plane
 // (a critical point at about 4% of the load) and carries the rest of the
 // load in a stable post-buckled state. Before, the path was lost at positive
