@@ -247,7 +247,20 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
           break;
         }
       }
-      if (!modified && (d.cwiseAbs().array() <= kCorrectionUlps * kEps * u.cwiseAbs().array()).all()) {
+      // For a time step also when, after two Newton steps or more, the
+      // residual is at its floor in norm and stopped falling, and the
+      // correction moves no unknown by more than the round-off of the
+      // largest (a structure at rest under large internal forces: the force
+      // round-off of a vertex at the origin exceeds its own componentwise
+      // floor, and the steps were rejected down to microseconds). Not before
+      // Newton moved: a rod falling from the origin moves by g h^2 per step,
+      // far below the round-off of its other coordinates.
+      const std::vector<double>& hist = rep.residualHistory;
+      const bool settledStep = inertia && it >= 2 && res <= floorForce && hist.size() >= 2 &&
+                               hist[hist.size() - 1] >= 0.5 * hist[hist.size() - 2] &&
+                               d.lpNorm<Eigen::Infinity>() <= kCorrectionUlps * kEps * a.maxCoeff();
+      if (!modified &&
+          (settledStep || (d.cwiseAbs().array() <= kCorrectionUlps * kEps * u.cwiseAbs().array()).all())) {
         rep.outcome = Outcome::Converged;
         rep.roundoff = true;
         rep.message = "Newton correction below the round-off of every unknown (force residual " + formatNumber("%.3g", res) +
