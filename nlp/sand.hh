@@ -44,6 +44,16 @@ struct SandOptions {
   // above, can wander for the whole iteration cap without coming back, and
   // the phase's best nearly feasible iterate is then the one to go on from.
   int wanderingIterates = 200;
+  // Also when `divergedIterates` iterates in a row needed a Hessian
+  // regularization (Ipopt's delta_w, on the scaled variables) of at least
+  // `divergedRegularization` at a dual infeasibility of at least
+  // `regularizedDualInfeasibility`: the Lagrangian's Hessian is then far
+  // from positive on the constraints' null space (multipliers grown huge),
+  // Ipopt's steps are short regularized ones and every iteration costs a
+  // dozen factorizations, which grow slow (docs/optimization.md, "SAND
+  // phases that diverge").
+  double divergedRegularization = 1e4;
+  double regularizedDualInfeasibility = 1e6;
   // The retry of a diverged phase keeps its iterates within this 1-norm of
   // the scaled constraints (Ipopt's theta_max_fact, default 1e4): steps that
   // leave equilibrium further are cut by the filter line search.

@@ -5,6 +5,7 @@
 #include "nlp/sand_nlp.hh"
 #include "solver/design_driver.hh"
 #include "solver/design_monitor.hh"
+#include "solver/format.hh"
 #include "solver/newton.hh"
 #include "solver/parallel.hh"
 
@@ -37,7 +38,7 @@ enum class StopReason { None, TimeLimit, Interrupted, NearlyConverged, Diverging
 class SandTnlp : public Ipopt::TNLP {
  public:
   struct Hooks {
-    std::function<void(int iter, const double* x, double infDu, double alphaPr)> progress;
+    std::function<void(int iter, const double* x, double infDu, double alphaPr, double regularization)> progress;
     std::function<StopReason()> stop;
     // The run's hard limits (interrupt, time limit) alone, checked at every
     // evaluation: Ipopt calls no intermediate_callback while it checks
@@ -164,12 +165,13 @@ class SandTnlp : public Ipopt::TNLP {
     if (lambda) finalLambda_.assign(lambda, lambda + m);
   }
 
-  bool intermediate_callback(Ipopt::AlgorithmMode, Index iter, Number, Number, Number infDu, Number, Number, Number,
-                             Number, Number alphaPr, Index, const Ipopt::IpoptData*,
+  bool intermediate_callback(Ipopt::AlgorithmMode, Index iter, Number, Number, Number infDu, Number, Number,
+                             Number regularization, Number, Number alphaPr, Index, const Ipopt::IpoptData*,
                              Ipopt::IpoptCalculatedQuantities*) override {
     iterations_ = iter;
     try {
-      if (hooks_.progress && !current_.empty()) hooks_.progress(iter, current_.data(), infDu, alphaPr);
+      if (hooks_.progress && !current_.empty())
+        hooks_.progress(iter, current_.data(), infDu, alphaPr, regularization);
       if (hooks_.stop) {
         stopReason_ = hooks_.stop();
         if (stopReason_ != StopReason::None) return false;
@@ -533,13 +535,15 @@ PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext&
   bool nearlyConverged = false, targetsMet = false, stalled = false, diverging = false;
   int farOff = 0;  // iterates in a row more than divergedLoads off equilibrium
   int offEquilibrium = 0;  // iterates in a row none of them nearly feasible (wanderingIterates)
+  int regularized = 0;     // iterates in a row with a large regularization (divergedRegularization)
+  std::string divergedHow;  // how the iterates diverged, when not by leaving equilibrium
   // Progress of the settled iterates (within 1e-5 of the load of
   // equilibrium: Newton's polish makes them equilibria); the phase starts at
   // an equilibrium.
   StallDetector stall(opt_.stallWindow, opt_.stallRelativeDecrease, ctx.initialObjective());
   stall.add(task.objective, true);
   SandTnlp::Hooks hooks;
-  hooks.progress = [&](int iter, const double* x, double infDu, double alphaPr) {
+  hooks.progress = [&](int iter, const double* x, double infDu, double alphaPr, double regularization) {
     if (iter == 0 && task.iterationBase > 0) return;  // a phase starts where the previous one ended
     DesignIterate it;
     it.iteration = task.iterationBase + iter;
@@ -577,8 +581,15 @@ PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext&
     nearlyConverged = nearlyConverged || targetsMet || stalled;
     farOff = it.constraintViolation > so_.divergedLoads * maxLoad_ ? farOff + 1 : 0;
     offEquilibrium = iter > 0 && it.constraintViolation > 1e-3 * minLoad_ ? offEquilibrium + 1 : 0;
+    regularized = regularization >= so_.divergedRegularization && infDu >= so_.regularizedDualInfeasibility
+                      ? regularized + 1
+                      : 0;
     diverging = farOff >= so_.divergedIterates || !(infDu <= so_.divergedDualInfeasibility) ||
-                offEquilibrium >= so_.wanderingIterates;
+                offEquilibrium >= so_.wanderingIterates || regularized >= so_.divergedIterates;
+    if (diverging && regularized >= so_.divergedIterates && farOff < so_.divergedIterates)
+      divergedHow = "needed Hessian regularizations of " + formatNumber("%.2g", regularization) +
+                    " and more at dual infeasibilities above " +
+                    formatNumber("%.2g", so_.regularizedDualInfeasibility);
     // The best nearly feasible iterate, the other candidate at the phase end
     // (a limit may stop Ipopt anywhere).
     if (it.constraintViolation <= 1e-3 * minLoad_ && it.objective < bestIterate.first) {
@@ -649,6 +660,7 @@ PhaseResult SandPhaseSolver::solveWithIpopt(const PhaseTask& task, PhaseContext&
   const StopReason why = tnlp->stopReason();
   if (why == StopReason::Diverging) {
     out.end = PhaseEnd::Diverged;
+    out.message = divergedHow;
   } else if (why == StopReason::Interrupted) {
     out.end = PhaseEnd::Interrupted;
   } else if (why == StopReason::TimeLimit) {
@@ -685,6 +697,8 @@ std::string SandOptions::isValid() const {
   if (divergedIterates < 1) return "SAND: the divergence window must be at least 1 iterate";
   if (wanderingIterates < 1) return "SAND: the window of iterates off equilibrium must be at least 1 iterate";
   if (!(divergedDualInfeasibility > 0)) return "SAND: the divergence threshold (dual infeasibility) must be positive";
+  if (!(divergedRegularization > 0) || !(regularizedDualInfeasibility > 0))
+    return "SAND: the divergence thresholds (regularization, dual infeasibility) must be positive";
   if (!(retryThetaMaxFact > 0) || !std::isfinite(retryThetaMaxFact))
     return "SAND: theta_max_fact of a retried phase must be positive";
   if (!(handOverTolerance > 0 && handOverTolerance < 1)) return "SAND: the hand-over tolerance must lie in (0, 1)";

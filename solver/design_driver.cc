@@ -755,8 +755,10 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
       if (attempt < 1) {
         ++attempt;
         retryDiverged = true;
-        notes.push_back("the iterates of " + task.label + " left equilibrium far behind (iteration " +
-                        std::to_string(iterations) + "); the phase was " + solver.divergedRetry() + retryStart());
+        notes.push_back("the iterates of " + task.label + " " +
+                        (pr.message.empty() ? std::string("left equilibrium far behind") : pr.message) +
+                        " (iteration " + std::to_string(iterations) + "); the phase was " + solver.divergedRetry() +
+                        retryStart());
         --ph;
         continue;
       }

@@ -65,14 +65,15 @@ enum class PhaseEnd {
   IterationLimit,  // the run's --max-iter
   TimeLimit,       // --time-limit
   Interrupted,     // SIGINT, SIGTERM, a callback
-  Diverged,        // the iterates left equilibrium far behind: the driver retries the phase once
+  Diverged,        // the iterates left equilibrium far behind (or another divergence test, PhaseResult::message
+                   // says which): the driver retries the phase once
   Failed,          // the phase solver failed (message says why)
   TargetsMet,      // every target met to round-off
 };
 
 struct PhaseResult {
   PhaseEnd end = PhaseEnd::Converged;
-  std::string message;           // Failed, Stalled: why; shown in the run's message
+  std::string message;           // Failed, Stalled: why; Diverged: how, if not by leaving equilibrium; shown in the run's message
   Outcome failure = Outcome::NumericalFailure;  // Failed: Stalled (no further step possible) or NumericalFailure
   int iterations = 0, evaluations = 0, failedEvaluations = 0, equilibriumRestarts = 0;
   double evaluationSeconds = 0.0;

@@ -147,6 +147,24 @@ TEST(SandRecovery, ADivergedPhaseIsRunAgainByNewtonCg) {
   EXPECT_LT(resolvedRms(model, pr.scene, w.design), 0.05 * w.initialRms) << w.message;
   o.wanderingIterates = 0;
   EXPECT_NE(o.isValid(), "");
+
+  // So is a phase whose iterates need a large Hessian regularization at a
+  // large dual infeasibility (forced here with thresholds that any
+  // regularization of one iterate passes); the message says which test
+  // stopped it.
+  o = recoveryOptions(Schedule::Joint);
+  o.warmupIterations = 0;
+  o.divergedIterates = 1;
+  o.divergedLoads = 1e300;  // no other test stops it
+  o.divergedRegularization = 1e-300;
+  o.regularizedDualInfeasibility = 1e-300;
+  const DesignOptimizerResult g = optimizeSand(model, space, o);
+  EXPECT_EQ(g.outcome, Outcome::Converged) << g.message;
+  EXPECT_NE(g.message.find("needed Hessian regularizations of"), std::string::npos) << g.message;
+  EXPECT_NE(g.message.find("run again by the reduced Newton-CG method"), std::string::npos) << g.message;
+  EXPECT_LT(resolvedRms(model, pr.scene, g.design), 0.05 * g.initialRms) << g.message;
+  o.divergedRegularization = 0.0;
+  EXPECT_NE(o.isValid(), "");
 }
 
 // With the rest shape free and default options, the run stays near
