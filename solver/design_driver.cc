@@ -110,8 +110,9 @@ class DesignDriver {
       res_.usable = std::isfinite(r) && res_.states[k].u.allFinite() && res_.states[k].loadFactor == 1.0;
       res_.residualNorm = std::max(res_.residualNorm, r);
     }
-    // Where the targets are met the gradient is round-off: nothing holds the design back.
-    if (res_.usable && !interrupted() && res_.objective > kTargetsMetRatio * res_.initialObjective) {
+    // Where the targets are met the gradient is round-off: nothing holds the
+    // design back. Not past the run's limits (one adjoint solve per pose).
+    if (res_.usable && !interrupted() && !timeUp() && res_.objective > kTargetsMetRatio * res_.initialObjective) {
       res_.boundActivity = radiusBoundActivity(model_, space_, objective_, res_.controls, res_.states, opt_.newton);
       const std::string held = describeBoundActivity(res_.boundActivity);
       if (!held.empty()) res_.message += "; " + held;

@@ -263,7 +263,10 @@ NewtonReport minimizeEnergy(const PoseSystem& system, const Design& design, Pose
           (settledStep || (d.cwiseAbs().array() <= kCorrectionUlps * kEps * u.cwiseAbs().array()).all())) {
         rep.outcome = Outcome::Converged;
         rep.roundoff = true;
-        rep.message = "Newton correction below the round-off of every unknown (force residual " + formatNumber("%.3g", res) +
+        rep.message = std::string(settledStep ? "time step settled: residual at its round-off floor and Newton "
+                                                "correction below the round-off of the largest unknown"
+                                              : "Newton correction below the round-off of every unknown") +
+                      " (force residual " + formatNumber("%.3g", res) +
                       " N, round-off floor " + formatNumber("%.3g", floorForce) + " N)";
         break;
       }
