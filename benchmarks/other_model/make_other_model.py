@@ -301,18 +301,20 @@ def rod_mass(scene):
 # --------------------------------------------------------------------------
 # Cases
 
-def finish(scene, poses):
-    """The scene with `poses` [(name, fixed list, target array)] and the design block."""
+def finish(scene, poses, bounds=BOUNDS):
+    """The scene with `poses` [(name, fixed list, target array)] and the design
+    block (bounds None: the default radius range)."""
     out = dict(scene)
     out.pop("radii", None)
     out["radius"] = [RADIUS, RADIUS]
     out["poses"] = [dict(name=n, weight=1.0, fixed=fixed, target=np.asarray(t).tolist()) for n, fixed, t in poses]
-    out["design"] = dict(parameters=["radii", "rest_shape"], radius_bounds=list(BOUNDS),
-                         control_points_per_rod=N_CONTROL)
+    out["design"] = dict(parameters=["radii", "rest_shape"], control_points_per_rod=N_CONTROL)
+    if bounds is not None:
+        out["design"]["radius_bounds"] = list(bounds)
     return out
 
 
-def shell_case(rodmesh, tmp, cells, k, motions, shell_h):
+def shell_case(rodmesh, tmp, cells, k, motions, shell_h, soft="corner", bounds=BOUNDS):
     scene = hex_sheet(rodmesh, tmp, cells, k, gravity=True)
     V = np.asarray(scene["vertices"], float)
     held, handle = sides(V)
@@ -327,7 +329,10 @@ def shell_case(rodmesh, tmp, cells, k, motions, shell_h):
     D = E * math.pi * RADIUS ** 4 / 4 / (0.025 * math.sqrt(3))
     Y = D / 0.003 ** 2
     xc, W, H = 0.5 * (lo[0] + hi[0]), hi[0] - lo[0], hi[1] - lo[1]
-    shell = Shell(lo, hi, shell_h, Y, D, lambda x, y: (x - xc) / W + (y - yc) / H > 0, rod_mass(scene), GRAVITY)
+    softs = {"corner": lambda x, y: (x - xc) / W + (y - yc) / H > 0,  # the handle's upper corner
+             "held": lambda x, y: x < xc,  # the half along the held side
+             "none": lambda x, y: False}
+    shell = Shell(lo, hi, shell_h, Y, D, softs[soft], rod_mass(scene), GRAVITY)
     sh_held = np.where(shell.P[:, 0] <= lo[0] + 1.01 * shell_h)[0]
     sh_handle = np.where(shell.P[:, 0] >= hi[0] - 1.01 * shell_h)[0]
     sh_all = np.concatenate([sh_held, sh_handle])
@@ -342,7 +347,7 @@ def shell_case(rodmesh, tmp, cells, k, motions, shell_h):
         T[handle] = move(V[handle], centre, 1.0)
         fixed = [dict(vertex=int(v)) for v in held] + [dict(vertex=int(v), position=T[v].tolist()) for v in handle]
         poses.append((name, fixed, T))
-    return finish(scene, poses)
+    return finish(scene, poses, bounds)
 
 
 def shape_case(rodmesh, tmp, cells, k):
@@ -405,6 +410,15 @@ def shell_motions(W):
             ("lift_twist_push", rigid_handle(lift=0.15 * W, twist=math.radians(25), push=0.15 * W))]
 
 
+def variant_motions(W, scale, sign=1.0):
+    """shell_motions scaled by `scale` (lift and push lengths, twist angle);
+    sign -1 lowers the handle and twists it the other way."""
+    return [("lift", rigid_handle(lift=sign * 0.25 * scale * W)),
+            ("twist", rigid_handle(twist=sign * math.radians(45) * scale)),
+            ("lift_twist_push", rigid_handle(lift=sign * 0.15 * scale * W, twist=sign * math.radians(25) * scale,
+                                             push=0.15 * scale * W))]
+
+
 def sheet_width(cells):
     return 0.025 * math.sqrt(3) * cells[0]
 
@@ -414,6 +428,22 @@ CASES = {
     "shape_small": lambda rm, tmp: shape_case(rm, tmp, (3, 3), 4),
     "mixed_small": lambda rm, tmp: mixed_case(rm, tmp, (3, 3), 4),
     "shell_large": lambda rm, tmp: shell_case(rm, tmp, (4, 5), 11, shell_motions(sheet_width((4, 5))), 0.005),
+    # Variants of shell_small for an acceptance-style sweep (not in the
+    # benchmark table): finer rods, larger and smaller motions, the motions
+    # reversed, other soft regions, the default radius range, more cells.
+    "var_fine": lambda rm, tmp: shell_case(rm, tmp, (3, 3), 7, shell_motions(sheet_width((3, 3))), 0.004),
+    "var_big": lambda rm, tmp: shell_case(rm, tmp, (3, 3), 4, variant_motions(sheet_width((3, 3)), 1.6), 0.005),
+    "var_gentle": lambda rm, tmp: shell_case(rm, tmp, (3, 3), 4, variant_motions(sheet_width((3, 3)), 0.4), 0.005),
+    "var_down": lambda rm, tmp: shell_case(rm, tmp, (3, 3), 4, variant_motions(sheet_width((3, 3)), 1.0, -1.0),
+                                           0.005),
+    "var_uniform": lambda rm, tmp: shell_case(rm, tmp, (3, 3), 4, shell_motions(sheet_width((3, 3))), 0.005,
+                                              soft="none"),
+    "var_heldsoft": lambda rm, tmp: shell_case(rm, tmp, (3, 3), 4, shell_motions(sheet_width((3, 3))), 0.005,
+                                               soft="held"),
+    "var_nobounds": lambda rm, tmp: shell_case(rm, tmp, (3, 3), 4, shell_motions(sheet_width((3, 3))), 0.005,
+                                               bounds=None),
+    "var_wide": lambda rm, tmp: shell_case(rm, tmp, (2, 5), 4, shell_motions(sheet_width((2, 5))), 0.005),
+    "var_long": lambda rm, tmp: shell_case(rm, tmp, (5, 2), 4, shell_motions(sheet_width((5, 2))), 0.005),
 }
 
 
