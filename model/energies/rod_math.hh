@@ -138,12 +138,27 @@ EdgeState<S> edgeState(const V3<S>& e, const S& th, const Eigen::Vector3d& chart
 }
 
 // Wraps an angle difference into (-pi, pi]; a constant shift, so derivatives
-// pass through unchanged.
+// pass through unchanged. The shift is one multiple of 2 pi, whatever the
+// angle: the twists it wraps contain twist unknowns, which a trial step of a
+// solver can make arbitrarily large (stepping by 2 pi at a time would then
+// take time in proportion to the angle, and never end for an infinite one or
+// beyond 2^53 rad, where subtracting 2 pi leaves the value unchanged). A
+// non-finite angle is returned as it is, so that the energy is not finite and
+// the step is rejected. Beyond 2^52 rad a double has no fractional part, so
+// no angle modulo 2 pi is left to keep: the result is 0.
 template <class S>
 inline S wrapAngle(S a) {
   constexpr double kPi = 3.14159265358979323846;
-  while (ad::value(a) > kPi) a = a - 2.0 * kPi;
-  while (ad::value(a) <= -kPi) a = a + 2.0 * kPi;
+  constexpr double kTwoPi = 2.0 * kPi;
+  constexpr double kWhole = 4503599627370496.0;  // 2^52
+  const double v = ad::value(a);
+  if (!std::isfinite(v) || (v <= kPi && v > -kPi)) return a;
+  if (std::abs(v) >= kWhole) return a - v;
+  // Below 2^52 the shift's rounding error is at most half a radian, so one
+  // more step of 2 pi brings a result just outside back in.
+  a = a - std::round(v / kTwoPi) * kTwoPi;
+  if (ad::value(a) > kPi) a = a - kTwoPi;
+  if (ad::value(a) <= -kPi) a = a + kTwoPi;
   return a;
 }
 

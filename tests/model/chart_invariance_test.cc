@@ -9,6 +9,7 @@
 // made the energy jump there, and Newton lost the loading path of such
 // sheets at positive stiffness (benchmarks/sweep2: a clamped hex sheet
 // compressed in plane by 0.1 N, 85 times its buckling load).
+#include "model/energies/rod_math.hh"
 #include "model/scene_model.hh"
 #include "tests/testutil/design_problems.hh"
 
@@ -16,6 +17,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <limits>
 #include <random>
 
 namespace rodmesh {
@@ -69,6 +71,76 @@ TEST(ChartInvariance, TurningAChartAndItsTwistUnknownTogetherChangesNothingAtAny
           << "phi " << phi << ", pattern " << pattern;
     }
   }
+}
+
+// wrapAngle (model/energies/rod_math.hh) shifts by one multiple of 2 pi: an
+// angle in (-pi, pi] is returned unchanged, any other lands in (-pi, pi] at
+// the angle's own rounding error, derivatives pass through, and a
+// non-finite angle stays non-finite. It used to step by 2 pi at a time:
+// 1e17 rad (where 1e17 - 2 pi == 1e17) or an infinite angle never returned.
+TEST(ChartInvariance, WrappingAnAngleIsOneShiftWhateverTheAngle) {
+  for (double x : {0.0, 1.0, -1.0, kPi, -kPi + 1e-15, 3.0, -3.0}) EXPECT_EQ(wrapAngle(x), x) << x;
+  EXPECT_DOUBLE_EQ(wrapAngle(-kPi), kPi);
+  for (double x : {0.3, -2.9, 3.1}) {
+    for (double k : {1.0, -1.0, 2.0, 7.0, -1e3, 1e6, 1e9, -1e12}) {
+      const double a = x + 2 * kPi * k;
+      const double w = wrapAngle(a);
+      EXPECT_GT(w, -kPi) << a;
+      EXPECT_LE(w, kPi) << a;
+      EXPECT_NEAR(w, x, 8 * std::numeric_limits<double>::epsilon() * std::abs(a)) << "x " << x << ", k " << k;
+    }
+  }
+  for (double a : {1e17, -1e17, 1e300, -1e300, std::numeric_limits<double>::max()}) {
+    const double w = wrapAngle(a);
+    EXPECT_GT(w, -kPi) << a;
+    EXPECT_LE(w, kPi) << a;
+  }
+  EXPECT_FALSE(std::isfinite(wrapAngle(std::numeric_limits<double>::infinity())));
+  EXPECT_FALSE(std::isfinite(wrapAngle(-std::numeric_limits<double>::infinity())));
+  EXPECT_TRUE(std::isnan(wrapAngle(std::numeric_limits<double>::quiet_NaN())));
+  // Derivatives pass through a wrap of any size.
+  ad::Hess<2> t = ad::Hess<2>::variable(0.4 + 2 * kPi * 1e5, 0);
+  t = t * t;  // value about 3.9e11, gradient 2 t in slot 0, Hessian 2
+  const ad::Hess<2> w = wrapAngle(t);
+  EXPECT_GT(w.v, -kPi);
+  EXPECT_LE(w.v, kPi);
+  EXPECT_EQ(w.g[0], t.g[0]);
+  EXPECT_EQ(w.g[1], 0.0);
+  EXPECT_EQ(w.hess(0, 0), 2.0);
+}
+
+// A solver's trial step can put a twist unknown many turns away, or
+// anywhere: the energy is that of the twist modulo 2 pi, and it is evaluated
+// at once (the twists of edge pairs, clamps and connections are wrapped as a
+// whole, twist unknowns included).
+TEST(ChartInvariance, ATwistUnknownTurnsAwayGivesTheSameEnergyAndAnyTwistIsEvaluated) {
+  const Scene scene = testutil::designNetwork(false);
+  SceneModel model(scene);
+  const PoseSystem& sys = model.pose(0);
+  const Design d = Design::fromScene(scene);
+  PoseState s = sys.withRestCharts(sys.restDofs(d), d);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (int i = 0; i < sys.numDofs(); ++i) s.u[i] += i >= sys.numVertexDofs() ? 0.3 * U(rng) : 1e-4 * U(rng);
+  const double E0 = sys.evaluate(s, d, nullptr, nullptr);
+  ASSERT_GT(E0, 0.0);
+  const int edges = model.network().numEdges();
+  for (double k : {1.0, -3.0, 1e4}) {
+    PoseState t = s;
+    for (int e = 0; e < edges; e += 2) t.u[sys.thetaDof(e)] += 2 * kPi * k;
+    EXPECT_NEAR(sys.evaluate(t, d, nullptr, nullptr), E0, 1e-8 * E0) << "k " << k;
+  }
+  for (double th : {1e17, -1e300}) {
+    PoseState t = s;
+    t.u[sys.thetaDof(edges / 2)] = th;
+    Eigen::VectorXd g;
+    const double E = sys.evaluate(t, d, &g, nullptr);
+    EXPECT_TRUE(std::isfinite(E)) << th;
+    EXPECT_TRUE(g.allFinite()) << th;
+  }
+  PoseState t = s;
+  t.u[sys.thetaDof(edges / 2)] = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(std::isfinite(sys.evaluate(t, d, nullptr, nullptr)));
 }
 
 }  // namespace
