@@ -180,7 +180,8 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                   "joint (everything at once; the default of --method sand and --method newton) or multilevel (everything together, "
                   "level by level)")
       ->check(CLI::IsMember({"paper", "joint", "levels", "multilevel"}));
-  app->add_option("--threads", opts->optimizer.threads, "poses solved in parallel (results do not depend on it)")
+  app->add_option("--threads", opts->optimizer.threads,
+                  "poses solved in parallel (default: the machine's hardware threads; results do not depend on it)")
       ->check(wholeNumberIn(1, kMaxThreads))
       ->capture_default_str();
   app->add_option("--design-derivatives", opts->designDerivatives,

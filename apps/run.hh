@@ -51,7 +51,14 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet);
 
 // ---- optimize (apps/run_optimize.cc)
 
+// The default of `optimize --threads`: the machine's hardware threads
+// (std::thread::hardware_concurrency, at least 1). Poses are solved in
+// parallel on fixed slots, so the result does not depend on the count; the
+// design monitor's thread (solver/design_monitor.hh) runs beside them.
+int defaultOptimizeThreads();
+
 struct OptimizeOptions {
+  OptimizeOptions() { optimizer.threads = defaultOptimizeThreads(); }
   std::string scene;
   std::string output;
   std::string method;  // sand (default when built) or reduced

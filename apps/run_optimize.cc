@@ -1,13 +1,16 @@
 // The work of `rodmesh optimize` (apps/cmd_optimize.cc), shared with the
 // Python module (python/): options, their checks, and the run that builds
 // the archive.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "apps/cli_common.hh"
+#include "apps/flag_checks.hh"
 #include "apps/run.hh"
 #include "solver/design_fallback.hh"
 #include "solver/design_optimizer.hh"
@@ -29,6 +32,11 @@ bool sandAvailable() {
 }
 
 }  // namespace
+
+int defaultOptimizeThreads() {
+  const unsigned n = std::thread::hardware_concurrency();  // 0: unknown
+  return n == 0 ? 1 : static_cast<int>(std::min<unsigned>(n, static_cast<unsigned>(kMaxThreads)));
+}
 
 void checkOptimizeOptions(OptimizeOptions& o) {
   o.optimizer.imperfectionBackOff = !o.noImperfectionBackOff;

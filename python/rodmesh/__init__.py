@@ -254,7 +254,8 @@ def optimize(scene, method=None, callback=None, quiet=True, **options):
     """Designs radii and rest shape so that every pose reaches its target, as
     `rodmesh optimize`. method: 'sand' (default when built with Ipopt) or
     'reduced'. Options are the CLI's flags: max_iter, time_limit, tol,
-    schedule ('paper' | 'joint' | 'levels' | 'multilevel'), threads,
+    schedule ('paper' | 'joint' | 'levels' | 'multilevel'), threads (default:
+    the machine's hardware threads; the result does not depend on it),
     design_derivatives ('exact' | 'fd' | 'fd-resolve'), ipopt (dict or list of
     'KEY=VALUE'), no_imperfection_back_off (bool), scene_start (bool).
 

@@ -23,6 +23,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <thread>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -256,6 +257,22 @@ TEST_F(OptimizeCli, NewtonProgressShowsCgIterationsAndTrustRadius) {
 // shape is designed for two poses weighted 1e6 and 1e-3: the weighted
 // objective falls, while the plain RMS over both poses can end above the
 // initial design's; it was printed "1.0x lower" either way.
+// --threads defaults to the machine's hardware threads (poses solved in
+// parallel); the archive is the one --threads 1 writes, to the last bit.
+TEST_F(OptimizeCli, ThreadsDefaultToTheHardwareAndDoNotChangeTheResult) {
+  std::string err;
+  ASSERT_EQ(run("optimize scene.json -o par.h5 --method reduced --max-iter 15", &err), 1) << err;
+  const unsigned hw = std::thread::hardware_concurrency();
+  EXPECT_NE(err.find(", " + std::to_string(hw == 0 ? 1u : hw) + " thread(s)"), std::string::npos) << err;
+  ASSERT_EQ(run("optimize scene.json -o one.h5 --method reduced --max-iter 15 --threads 1", &err), 1) << err;
+  EXPECT_NE(err.find(", 1 thread(s)"), std::string::npos) << err;
+  const Archive a = readArchive(path("par.h5")), b = readArchive(path("one.h5"));
+  ASSERT_EQ(a.poses.size(), b.poses.size());
+  for (std::size_t k = 0; k < a.poses.size(); ++k) EXPECT_EQ(a.poses[k].positions, b.poses[k].positions) << k;
+  EXPECT_EQ(a.restPositions, b.restPositions);
+  EXPECT_EQ(a.radii, b.radii);
+}
+
 TEST_F(OptimizeCli, TheSummarySaysWhetherTheRmsWentDownOrUp) {
   clitest::writeText(path("hinged.json"), clitest::readText(kSourceDir + "/tests/cli/hinged_sheet_weighted.json"));
   std::string err;
