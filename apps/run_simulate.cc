@@ -3,6 +3,7 @@
 // the archive.
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <memory>
 
@@ -237,6 +238,12 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
       char details[256];
       std::snprintf(details, sizeof details, "%d Newton iterations, %d load steps, relative residual %.1e",
                     pr.report.iterations, pr.report.loadSteps, pr.report.relativeResidual);
+      // Converged at the round-off floor (loads so small that the forces'
+      // round-off is a large fraction of them): the relative residual above
+      // the tolerance is that round-off, not an unfinished solve.
+      if (pr.report.converged() && pr.report.roundoff)
+        std::snprintf(details + std::strlen(details), sizeof details - std::strlen(details),
+                      " (at the round-off floor of the forces, %.1e N)", pr.report.roundoffFloor);
       addPose(p, pr.positions, pr.twist, solve, details, pr.report.converged() ? "" : pr.report.message);
       if (!quiet)
         for (const CriticalPoint& cp : pr.report.criticalPoints)

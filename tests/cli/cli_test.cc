@@ -286,6 +286,32 @@ TEST_F(CliTest, OverwritesAnExistingOutput) {
   EXPECT_EQ(files(), (std::vector<std::string>{"cantilever.json", "out.h5"}));
 }
 
+// A load so small that the forces' round-off is a large part of it: the
+// pose converges at the round-off floor, and its line says so next to a
+// relative residual far above the tolerance; an ordinary load's line does
+// not.
+TEST_F(CliTest, APoseConvergedAtTheRoundOffFloorSaysSo) {
+  std::string v;
+  for (int i = 0; i < 6; ++i) v += (i ? ", [" : "[") + std::to_string(3.0 + 0.02 * i) + ", -2, 5]";
+  writeFile(path("far.json"),
+            "{\"format\": \"rodmesh-scene/1\", \"material\": {\"young_modulus\": 1e7, \"poisson_ratio\": 0.4, "
+            "\"density\": 1000}, \"vertices\": [" + v + "], \"rods\": [{\"vertices\": [0, 1, 2, 3, 4, 5]}], "
+            "\"radius\": [0.002, 0.001], \"poses\": ["
+            "{\"name\": \"tiny\", \"clamped\": [{\"vertex\": 0}], \"forces\": [{\"vertex\": 5, \"force\": [0, 0, -1e-13]}]}, "
+            "{\"name\": \"ordinary\", \"clamped\": [{\"vertex\": 0}], \"forces\": [{\"vertex\": 5, \"force\": [0, 0, -1e-3]}]}]}");
+  const RunResult r = run("simulate far.json -o out.h5");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::string tiny, ordinary;
+  for (const std::string& line : nonEmptyLines(r.err)) {
+    if (line.find("pose 0 'tiny'") == 0) tiny = line;
+    if (line.find("pose 1 'ordinary'") == 0) ordinary = line;
+  }
+  EXPECT_NE(tiny.find("converged"), std::string::npos) << r.err;
+  EXPECT_NE(tiny.find("(at the round-off floor of the forces, "), std::string::npos) << r.err;
+  ASSERT_FALSE(ordinary.empty()) << r.err;
+  EXPECT_EQ(ordinary.find("round-off"), std::string::npos) << ordinary;
+}
+
 // ---------------------------------------------------------------- simulate: not converged
 
 TEST_F(CliTest, NotConvergedExitsOneAndStillWritesTheArchive) {
