@@ -84,27 +84,74 @@ void checkOptimizeOptions(OptimizeOptions& o) {
   if (std::string why = o.optimizer.isValid(); !why.empty()) throw InputError("optimize: " + why);
 }
 
+namespace {
+// A run from the scene's rest shape that ends above this fraction of the
+// initial design's RMS has not met its targets: a second start is tried.
+constexpr double kSecondStartRms = 0.01;
+}  // namespace
+
 OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const DesignSpace& space, OptimizeOptions& o,
                         const DesignProgress& progress, bool quiet) {
-  DesignOptimizerResult r;
+  auto optimizeWith = [&](const DesignOptimizerOptions& opt) {
 #ifdef RODMESH_HAVE_NLP
-  if (o.method == "sand") {
-    SandOptions so;
-    so.optimizer = o.optimizer;
-    for (const std::string& kv : o.ipopt) {
-      const std::size_t eq = kv.find('=');
-      so.ipopt.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+    if (o.method == "sand") {
+      SandOptions so;
+      so.optimizer = opt;
+      for (const std::string& kv : o.ipopt) {
+        const std::size_t eq = kv.find('=');
+        so.ipopt.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+      }
+      return optimizeSand(model, space, so, progress);
     }
-    r = optimizeSand(model, space, so, progress);
-  } else if (o.method == "newton") {
-    r = optimizeNewton(model, space, o.optimizer, progress);
-  } else {
-    r = optimizeReduced(model, space, o.optimizer, progress);
-  }
-#else
-  r = o.method == "newton" ? optimizeNewton(model, space, o.optimizer, progress)
-                           : optimizeReduced(model, space, o.optimizer, progress);
 #endif
+    return o.method == "newton" ? optimizeNewton(model, space, opt, progress)
+                                : optimizeReduced(model, space, opt, progress);
+  };
+  DesignOptimizerResult r = optimizeWith(o.optimizer);
+  // A second start (docs/optimization.md, "A second start"): with the rest
+  // shape free, a run from the scene's rest shape that ended by its own
+  // tests with the targets not met (RMS above kSecondStartRms of the initial
+  // design's) is followed by a run from the best target's rest shape that
+  // does better from rest than the initial design, and the better of the
+  // two is the result.
+  if (o.optimizer.startFromTargets && scene.design.restShape && r.start.empty() && !r.startCandidate.empty() &&
+      (r.outcome == Outcome::Converged || r.outcome == Outcome::Stalled) && r.initialRms > 0 &&
+      r.rms > kSecondStartRms * r.initialRms) {
+    DesignOptimizerOptions second = o.optimizer;
+    second.requireTargetStart = true;
+    if (second.timeLimit > 0) second.timeLimit -= r.timeSeconds;
+    if (second.timeLimit >= 0) {
+      if (!quiet)
+        std::fprintf(stderr,
+                     "optimizer: %s (RMS %.4f mm, %.3g of the initial design's): a second run from %s\n",
+                     outcomeName(r.outcome), r.rms * 1e3, r.rms / r.initialRms, r.startCandidate.c_str());
+      DesignOptimizerResult r2 = optimizeWith(second);
+      char buf[160];
+      if (!r2.start.empty() && r2.outcome != Outcome::InvalidProblem && r2.outcome != Outcome::NumericalFailure &&
+          r2.usable && r2.rms < r.rms) {
+        std::snprintf(buf, sizeof buf, " (RMS %.4f mm) is the result, against %.4f mm from the scene's rest shape",
+                      r2.rms * 1e3, r.rms * 1e3);
+        r2.message += "; a second run, from " + r2.start + buf;
+        r2.timeSeconds += r.timeSeconds;
+        r2.evaluationSeconds += r.evaluationSeconds;
+        r2.solverSeconds += r.solverSeconds;
+        r2.evaluations += r.evaluations;
+        r = std::move(r2);
+      } else {
+        if (r2.start.empty()) {
+          r.message += "; no target's rest shape did better from rest than the scene's, so there was no second run";
+        } else {
+          std::snprintf(buf, sizeof buf, " ended at RMS %.4f mm (%s), not better: the first run's design is the result",
+                        r2.rms * 1e3, outcomeName(r2.outcome));
+          r.message += "; a second run, from " + r2.start + buf;
+        }
+        r.timeSeconds += r2.timeSeconds;
+        r.evaluationSeconds += r2.evaluationSeconds;
+        r.solverSeconds += r2.solverSeconds;
+        r.evaluations += r2.evaluations;
+      }
+    }
+  }
   if (!quiet) {
     std::cerr << "optimizer: " << outcomeName(r.outcome) << " (" << r.message << "), " << r.iterations
               << " iterations, " << r.evaluations << " evaluations, " << formatSeconds(r.timeSeconds) << "\n";

@@ -112,7 +112,8 @@ class DesignDriver {
     }
     // Where the targets are met the gradient is round-off: nothing holds the
     // design back. Not past the run's limits (one adjoint solve per pose).
-    if (res_.usable && !interrupted() && !timeUp() && res_.objective > kTargetsMetRatio * res_.initialObjective) {
+    if (res_.usable && o != Outcome::InvalidProblem && !interrupted() && !timeUp() &&
+        res_.objective > kTargetsMetRatio * res_.initialObjective) {
       res_.boundActivity = radiusBoundActivity(model_, space_, objective_, res_.controls, res_.states, opt_.newton);
       const std::string held = describeBoundActivity(res_.boundActivity);
       if (!held.empty()) res_.message += "; " + held;
@@ -495,7 +496,7 @@ bool DesignDriver::seedTowardsDesigned(const std::vector<PoseState>& path, std::
 constexpr double kTargetStartGain = 0.25;
 
 std::string DesignDriver::startFromTargets() {
-  if (!scene_.design.restShape || !opt_.startFromTargets) return "";
+  if (!scene_.design.restShape || !(opt_.startFromTargets || opt_.requireTargetStart)) return "";
   const int K = model_.numPoses();
   const int nv = space_.numVertices();
   // A target's rest shape replaces the scene's only when it at least halves
@@ -503,8 +504,9 @@ std::string DesignDriver::startFromTargets() {
   // somewhat better from rest need not lie in a better basin
   // (docs/optimization.md, "The start").
   OnPathDesign best = bestOnPath_;
-  best.objective *= kTargetStartGain;
+  if (!opt_.requireTargetStart) best.objective *= kTargetStartGain;
   int chosen = -1;
+  double candidateObjective = std::numeric_limits<double>::infinity();
   for (int k = 0; k < K; ++k) {
     const Pose& pose = scene_.poses[static_cast<std::size_t>(k)];
     if (!(pose.weight > 0) || static_cast<int>(pose.target.size()) != nv) continue;
@@ -521,7 +523,12 @@ std::string DesignDriver::startFromTargets() {
     const Design d = space_.toDesign(c);
     std::vector<PoseState> path = restStates(d);
     double f = 0.0, rms = 0.0;
-    if (!solveAndScore(d, path, f, rms) || !(f < best.objective)) continue;
+    if (!solveAndScore(d, path, f, rms)) continue;
+    if (f < bestOnPath_.objective && f < candidateObjective) {
+      candidateObjective = f;
+      res_.startCandidate = "the rest shape of pose '" + pose.name + "''s target";
+    }
+    if (!(f < best.objective)) continue;
     best = {c, d, f, rms, path, "the rest shape of pose '" + pose.name + "''s target"};
     chosen = k;
   }
@@ -529,6 +536,7 @@ std::string DesignDriver::startFromTargets() {
   adopt(best.controls, best.design, best.objective, best.rms, best.states, best.states);
   bestOnPath_ = best;
   start_ = best.controls;
+  res_.start = best.label;
   return "the run started from " + best.label + " (RMS " + millimetres(best.rms) +
          " as loaded from rest, against " + millimetres(res_.initialRms) + " for the initial design)";
 }
@@ -636,6 +644,8 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   const std::string startNote = startFromTargets();
   if (interrupted()) return finish(Outcome::Interrupted, "interrupted");
   if (timeUp()) return finish(Outcome::TimeLimit, "time limit reached");
+  if (opt_.requireTargetStart && startNote.empty())
+    return finish(Outcome::InvalidProblem, "no target's rest shape does better from rest than the initial design");
   // The optimizer's designs are re-solved on a second thread, so that a
   // design that re-solves from rest is at hand at every moment.
   if (opt_.confirmDesigns)

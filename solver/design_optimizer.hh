@@ -150,6 +150,12 @@ struct DesignOptimizerOptions {
   // best of them and the initial design is where the schedule starts
   // (docs/optimization.md, "The start").
   bool startFromTargets = true;
+  // The second start of a run whose targets were not met from the scene's
+  // rest shape (apps/run_optimize.cc, docs/optimization.md "A second
+  // start"): the run starts from the best target's rest shape that does
+  // better than the initial design from rest, by any margin, and ends at
+  // once (InvalidProblem) when there is none.
+  bool requireTargetStart = false;
   // Called on the monitor's thread with every newly confirmed best design.
   std::function<void(const ConfirmedDesign&)> onConfirmed;
   std::string isValid() const;
@@ -204,6 +210,13 @@ struct DesignOptimizerResult : SolveSummary {
   // (solver/bound_activity.hh); not computed when radii are not free or the
   // run has no usable equilibria.
   RadiusBoundActivity boundActivity;
+  // Where the schedule started: empty for the scene's rest shape, otherwise
+  // the rest shape of a target ("the rest shape of pose 'NAME''s target").
+  std::string start;
+  // The best target's rest shape that did better from rest than the initial
+  // design, whether or not the run started there (empty: none did, or none
+  // was tried): what a second start would start from.
+  std::string startCandidate;
 };
 
 // The phases of a schedule (paper: radii level by level, then rounds of rest
