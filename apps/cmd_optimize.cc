@@ -74,8 +74,10 @@ class Watchdog {
 
   void confirmed(const ConfirmedDesign& d) {
     std::lock_guard<std::mutex> lock(mutex_);
+    // The better one: with a second start (apps/run_optimize.cc) the second
+    // run's monitor reports its own bests, which need not beat the first's.
     if (d.initial) initial_ = d;
-    else best_ = d;
+    else if (!best_ || d.objective < best_->objective) best_ = d;
   }
   void iterate(const DesignIterate& it) {
     std::lock_guard<std::mutex> lock(mutex_);
