@@ -119,16 +119,24 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       r.rms > kSecondStartRms * r.initialRms) {
     DesignOptimizerOptions second = o.optimizer;
     second.requireTargetStart = true;
-    if (second.timeLimit > 0) second.timeLimit -= r.timeSeconds;
-    if (second.timeLimit >= 0) {
+    bool timeLeft = true;  // --time-limit covers both runs
+    if (second.timeLimit > 0) {
+      second.timeLimit -= r.timeSeconds;
+      timeLeft = second.timeLimit > 1e-3;
+    }
+    if (timeLeft) {
       if (!quiet)
         std::fprintf(stderr,
                      "optimizer: %s (RMS %.4f mm, %.3g of the initial design's): a second run from %s\n",
                      outcomeName(r.outcome), r.rms * 1e3, r.rms / r.initialRms, r.startCandidate.c_str());
       DesignOptimizerResult r2 = optimizeWith(second);
       char buf[160];
+      // The second run's design replaces the first's when it is better and
+      // its run ended as well (a converged first run is not traded for a
+      // second one cut by the time limit).
+      const bool endedAsWell = r2.outcome == Outcome::Converged || r.outcome != Outcome::Converged;
       if (!r2.start.empty() && r2.outcome != Outcome::InvalidProblem && r2.outcome != Outcome::NumericalFailure &&
-          r2.usable && r2.rms < r.rms) {
+          r2.usable && endedAsWell && r2.rms < r.rms) {
         std::snprintf(buf, sizeof buf, " (RMS %.4f mm) is the result, against %.4f mm from the scene's rest shape",
                       r2.rms * 1e3, r.rms * 1e3);
         r2.message += "; a second run, from " + r2.start + buf;
