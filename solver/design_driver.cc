@@ -524,12 +524,13 @@ std::string DesignDriver::startFromTargets() {
     std::vector<PoseState> path = restStates(d);
     double f = 0.0, rms = 0.0;
     if (!solveAndScore(d, path, f, rms)) continue;
+    const std::string label = "the rest shape of pose '" + pose.name + "''s target";
     if (f < bestOnPath_.objective && f < candidateObjective) {
       candidateObjective = f;
-      res_.startCandidate = "the rest shape of pose '" + pose.name + "''s target";
+      res_.startCandidate = label;
     }
     if (!(f < best.objective)) continue;
-    best = {c, d, f, rms, path, "the rest shape of pose '" + pose.name + "''s target"};
+    best = {c, d, f, rms, path, label};
     chosen = k;
   }
   if (chosen < 0) return "";
