@@ -118,7 +118,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       (r.outcome == Outcome::Converged || r.outcome == Outcome::Stalled) && r.initialRms > 0 &&
       r.rms > kSecondStartRms * r.initialRms) {
     DesignOptimizerOptions second = o.optimizer;
-    second.requireTargetStart = true;
+    second.startTargetPose = r.startCandidatePose;
     bool timeLeft = true;  // --time-limit covers both runs
     if (second.timeLimit > 0) {
       second.timeLimit -= r.timeSeconds;
@@ -130,34 +130,27 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
                      "optimizer: %s (RMS %.4f mm, %.3g of the initial design's): a second run from %s\n",
                      outcomeName(r.outcome), r.rms * 1e3, r.rms / r.initialRms, r.startCandidate.c_str());
       DesignOptimizerResult r2 = optimizeWith(second);
-      char buf[160];
       // The second run's design replaces the first's when it is better and
       // its run ended as well (a converged first run is not traded for a
       // second one cut by the time limit).
       const bool endedAsWell = r2.outcome == Outcome::Converged || r.outcome != Outcome::Converged;
-      if (!r2.start.empty() && r2.outcome != Outcome::InvalidProblem && r2.outcome != Outcome::NumericalFailure &&
-          r2.usable && endedAsWell && r2.rms < r.rms) {
-        std::snprintf(buf, sizeof buf, " (RMS %.4f mm) is the result, against %.4f mm from the scene's rest shape",
-                      r2.rms * 1e3, r.rms * 1e3);
-        r2.message += "; a second run, from " + r2.start + buf;
-        r2.timeSeconds += r.timeSeconds;
-        r2.evaluationSeconds += r.evaluationSeconds;
-        r2.solverSeconds += r.solverSeconds;
-        r2.evaluations += r.evaluations;
-        r = std::move(r2);
-      } else {
-        if (r2.start.empty()) {
-          r.message += "; no target's rest shape did better from rest than the scene's, so there was no second run";
-        } else {
-          std::snprintf(buf, sizeof buf, " ended at RMS %.4f mm (%s), not better: the first run's design is the result",
-                        r2.rms * 1e3, outcomeName(r2.outcome));
-          r.message += "; a second run, from " + r2.start + buf;
-        }
-        r.timeSeconds += r2.timeSeconds;
-        r.evaluationSeconds += r2.evaluationSeconds;
-        r.solverSeconds += r2.solverSeconds;
-        r.evaluations += r2.evaluations;
-      }
+      const bool secondWins = !r2.start.empty() && r2.outcome != Outcome::InvalidProblem &&
+                           r2.outcome != Outcome::NumericalFailure && r2.usable && endedAsWell && r2.rms < r.rms;
+      char buf[200];
+      if (secondWins)
+        std::snprintf(buf, sizeof buf, "; a second run, from %s (RMS %.4f mm) is the result, against %.4f mm from the "
+                      "scene's rest shape", r2.start.c_str(), r2.rms * 1e3, r.rms * 1e3);
+      else
+        std::snprintf(buf, sizeof buf, "; a second run, from %s, ended at RMS %.4f mm (%s), not better: the first "
+                      "run's design is the result", r.startCandidate.c_str(), r2.rms * 1e3, outcomeName(r2.outcome));
+      DesignOptimizerResult& kept = secondWins ? r2 : r;
+      const DesignOptimizerResult& other = secondWins ? r : r2;
+      kept.message += buf;
+      kept.timeSeconds += other.timeSeconds;
+      kept.evaluationSeconds += other.evaluationSeconds;
+      kept.solverSeconds += other.solverSeconds;
+      kept.evaluations += other.evaluations;
+      if (secondWins) r = std::move(r2);
     }
   }
   if (!quiet) {

@@ -496,7 +496,8 @@ bool DesignDriver::seedTowardsDesigned(const std::vector<PoseState>& path, std::
 constexpr double kTargetStartGain = 0.25;
 
 std::string DesignDriver::startFromTargets() {
-  if (!scene_.design.restShape || !(opt_.startFromTargets || opt_.requireTargetStart)) return "";
+  const bool forced = opt_.startTargetPose >= 0;  // a second start: that pose's target, however little it gains
+  if (!scene_.design.restShape || !(opt_.startFromTargets || forced)) return "";
   const int K = model_.numPoses();
   const int nv = space_.numVertices();
   // A target's rest shape replaces the scene's only when it at least halves
@@ -504,12 +505,13 @@ std::string DesignDriver::startFromTargets() {
   // somewhat better from rest need not lie in a better basin
   // (docs/optimization.md, "The start").
   OnPathDesign best = bestOnPath_;
-  if (!opt_.requireTargetStart) best.objective *= kTargetStartGain;
+  if (!forced) best.objective *= kTargetStartGain;
   int chosen = -1;
   double candidateObjective = std::numeric_limits<double>::infinity();
   for (int k = 0; k < K; ++k) {
     const Pose& pose = scene_.poses[static_cast<std::size_t>(k)];
-    if (!(pose.weight > 0) || static_cast<int>(pose.target.size()) != nv) continue;
+    if ((forced && k != opt_.startTargetPose) || !(pose.weight > 0) || static_cast<int>(pose.target.size()) != nv)
+      continue;
     if (interrupted() || timeUp()) break;
     // The rest displacement that makes this target the unloaded shape, as
     // nearly as the control points can (for a planar scene toDesign keeps
@@ -528,6 +530,7 @@ std::string DesignDriver::startFromTargets() {
     if (f < bestOnPath_.objective && f < candidateObjective) {
       candidateObjective = f;
       res_.startCandidate = label;
+      res_.startCandidatePose = k;
     }
     if (!(f < best.objective)) continue;
     best = {c, d, f, rms, path, label};
@@ -645,8 +648,10 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   const std::string startNote = startFromTargets();
   if (interrupted()) return finish(Outcome::Interrupted, "interrupted");
   if (timeUp()) return finish(Outcome::TimeLimit, "time limit reached");
-  if (opt_.requireTargetStart && startNote.empty())
-    return finish(Outcome::InvalidProblem, "no target's rest shape does better from rest than the initial design");
+  if (opt_.startTargetPose >= 0 && startNote.empty())
+    return finish(Outcome::InvalidProblem,
+                  "the rest shape of the start's target cannot be solved from rest or does no better than the initial "
+                  "design");
   // The optimizer's designs are re-solved on a second thread, so that a
   // design that re-solves from rest is at hand at every moment.
   if (opt_.confirmDesigns)

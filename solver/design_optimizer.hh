@@ -152,10 +152,12 @@ struct DesignOptimizerOptions {
   bool startFromTargets = true;
   // The second start of a run whose targets were not met from the scene's
   // rest shape (apps/run_optimize.cc, docs/optimization.md "A second
-  // start"): the run starts from the best target's rest shape that does
-  // better than the initial design from rest, by any margin, and ends at
-  // once (InvalidProblem) when there is none.
-  bool requireTargetStart = false;
+  // start"): the pose (index) whose target's rest shape is the start
+  // however little it gains on the initial design (the first run's
+  // startCandidatePose); only that rest shape is solved, and the run ends at
+  // once (InvalidProblem) when it cannot be solved from rest or does no
+  // better than the initial design. -1: the rule of startFromTargets.
+  int startTargetPose = -1;
   // Called on the monitor's thread with every newly confirmed best design.
   std::function<void(const ConfirmedDesign&)> onConfirmed;
   std::string isValid() const;
@@ -217,6 +219,7 @@ struct DesignOptimizerResult : SolveSummary {
   // design, whether or not the run started there (empty: none did, or none
   // was tried): what a second start would start from.
   std::string startCandidate;
+  int startCandidatePose = -1;  // its pose index
 };
 
 // The phases of a schedule (paper: radii level by level, then rounds of rest
