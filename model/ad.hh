@@ -234,6 +234,43 @@ inline Hess<N, T> atan2(const Hess<N, T>& y, const Hess<N, T>& x) {
 template <int N, class T>
 inline double value(const Hess<N, T>& a) { return value(a.v); }
 
+// Sums of signed products, a0 b0 ± a1 b1 [± a2 b2], in one pass over the
+// result: the dot products and cross-product components of the frame
+// operations (model/energies/rod_math.hh) otherwise build K products and
+// K − 1 sums as whole temporaries, kilobytes each for the larger stencils.
+// Each entry is formed in the order the separate operators use (each product
+// as in operator*, then the products summed left to right).
+template <int N, class T>
+inline Hess<N, T> productSum(const Hess<N, T>& a0, const Hess<N, T>& b0, const Hess<N, T>& a1,
+                             const Hess<N, T>& b1, const Hess<N, T>& a2, const Hess<N, T>& b2) {
+  Hess<N, T> r{NoInit{}};
+  r.v = a0.v * b0.v + a1.v * b1.v + a2.v * b2.v;
+  for (int i = 0; i < N; ++i)
+    r.g[i] = (a0.v * b0.g[i] + b0.v * a0.g[i]) + (a1.v * b1.g[i] + b1.v * a1.g[i]) +
+             (a2.v * b2.g[i] + b2.v * a2.g[i]);
+  int k = 0;
+  for (int i = 0; i < N; ++i)
+    for (int j = 0; j <= i; ++j, ++k)
+      r.h[k] = (a0.v * b0.h[k] + b0.v * a0.h[k] + a0.g[i] * b0.g[j] + a0.g[j] * b0.g[i]) +
+               (a1.v * b1.h[k] + b1.v * a1.h[k] + a1.g[i] * b1.g[j] + a1.g[j] * b1.g[i]) +
+               (a2.v * b2.h[k] + b2.v * a2.h[k] + a2.g[i] * b2.g[j] + a2.g[j] * b2.g[i]);
+  return r;
+}
+// a0 b0 − a1 b1.
+template <int N, class T>
+inline Hess<N, T> productDifference(const Hess<N, T>& a0, const Hess<N, T>& b0, const Hess<N, T>& a1,
+                                    const Hess<N, T>& b1) {
+  Hess<N, T> r{NoInit{}};
+  r.v = a0.v * b0.v - a1.v * b1.v;
+  for (int i = 0; i < N; ++i) r.g[i] = (a0.v * b0.g[i] + b0.v * a0.g[i]) - (a1.v * b1.g[i] + b1.v * a1.g[i]);
+  int k = 0;
+  for (int i = 0; i < N; ++i)
+    for (int j = 0; j <= i; ++j, ++k)
+      r.h[k] = (a0.v * b0.h[k] + b0.v * a0.h[k] + a0.g[i] * b0.g[j] + a0.g[j] * b0.g[i]) -
+               (a1.v * b1.h[k] + b1.v * a1.h[k] + a1.g[i] * b1.g[j] + a1.g[j] * b1.g[i]);
+  return r;
+}
+
 // ---------------------------------------------------------------- Grad ----
 // Value and gradient only: for evaluations that need forces but no Hessian
 // (dynamic relaxation, residual checks), several times cheaper than Hess.

@@ -232,6 +232,11 @@ double PhaseContext::remainingTime() const { return driver_.remainingTime(); }
 double PhaseContext::initialObjective() const { return driver_.initialObjective(); }
 const DesignOptimizerOptions& PhaseContext::options() const { return driver_.options(); }
 
+// backOffFromImperfection: bisections between the first robust design of
+// the back-off and the last sensitive one (each tests one design: three
+// loading paths per pose, and the imperfect ones).
+constexpr int kBackOffBisections = 3;
+
 std::string DesignDriver::backOffFromImperfection() {
   // `d` solved from rest into `sim` and tested: true when a pose is
   // sensitive (`pose`, `gap`: the first such). A design with a pose that
@@ -239,7 +244,7 @@ std::string DesignDriver::backOffFromImperfection() {
   // designs are the archive's business).
   auto sensitive = [&](const Design& d, SimulationResult& sim, std::string& pose, double& gap) {
     const auto te = Clock::now();
-    sim = simulateAll(model_, d, opt_.newton);
+    sim = simulateAll(model_, d, opt_.newton, {}, /*unloadedStiffness=*/true);  // atCriticalPoint below
     bool any = false;
     if (sim.allConverged) {
       addImperfectionSensitivity(model_, d, opt_.newton, sim);
@@ -267,28 +272,72 @@ std::string DesignDriver::backOffFromImperfection() {
                                            : "reaches no equilibrium";
   const std::string what = "pose '" + pose + "' of the final design is imperfection-sensitive (with its radii 0.1% " +
                            "off, its loading path " + gapText + ")";
-  for (const double t : {0.999, 0.99, 0.9, 0.5}) {
-    if (interrupted() || timeUp()) break;
-    ControlValues c = initial;
-    c.radii = initial.radii + t * (res_.controls.radii - initial.radii);
-    c.displacement = initial.displacement + t * (res_.controls.displacement - initial.displacement);
-    const Design d = space_.toDesign(c);
-    SimulationResult s;
+  // The design t of the way from `initial` to the final design, solved from
+  // rest and tested; true when it is not sensitive (every pose converged),
+  // with its objective and RMS.
+  struct Tested {
+    ControlValues controls;
+    Design design;
+    SimulationResult sim;
+    double f = 0.0, rms = 0.0;
+  };
+  auto robust = [&](double t, Tested& out) {
+    out.controls = initial;
+    out.controls.radii = initial.radii + t * (res_.controls.radii - initial.radii);
+    out.controls.displacement = initial.displacement + t * (res_.controls.displacement - initial.displacement);
+    out.design = space_.toDesign(out.controls);
     std::string p;
     double g = 0.0;
-    if (sensitive(d, s, p, g) || !s.allConverged || interrupted()) continue;
+    if (sensitive(out.design, out.sim, p, g) || !out.sim.allConverged || interrupted()) return false;
     std::vector<PoseState> states;
-    for (const PoseResult& r : s.poses) states.push_back(r.state);
-    double f = 0.0;
-    const double rms = objective_.rms(objectiveOfStates(model_, objective_, d, states, f));
-    if (!(f < res_.initialObjective)) break;  // farther back is no better
+    for (const PoseResult& r : out.sim.poses) states.push_back(r.state);
+    out.rms = objective_.rms(objectiveOfStates(model_, objective_, out.design, states, out.f));
+    return true;
+  };
+  double lastSensitive = 1.0;  // the final design
+  for (const double t : {0.999, 0.99, 0.9, 0.5}) {
+    if (interrupted() || timeUp()) break;
+    Tested ok;
+    if (!robust(t, ok)) {
+      lastSensitive = t;
+      continue;
+    }
+    if (!(ok.f < res_.initialObjective)) break;  // farther back is no better
+    // The edge lies between t and the last sensitive design: a few
+    // bisections find a robust design nearer to it, which near the edge is
+    // the better one (the steps of t are coarse where the final design is
+    // far from the start).
+    // A design nearer the edge must not be at a critical point where the
+    // coarse step's is not (its stiffness near zero: robust to this test's
+    // imperfection, not to a larger one).
+    auto critical = [](const SimulationResult& sim) {
+      for (const PoseResult& r : sim.poses)
+        if (r.atCriticalPoint()) return true;
+      return false;
+    };
+    const bool okCritical = critical(ok.sim);
+    double tOk = t;
+    for (int i = 0; i < kBackOffBisections && !interrupted() && !timeUp(); ++i) {
+      const double mid = 0.5 * (tOk + lastSensitive);
+      Tested m;
+      if (!robust(mid, m) || (critical(m.sim) && !okCritical)) {
+        lastSensitive = mid;
+        continue;
+      }
+      if (!(m.f < ok.f)) break;  // nearer the edge but no better: keep t
+      ok = std::move(m);
+      tOk = mid;
+    }
     const double before = res_.rms;
-    adopt(c, d, f, rms, states, states);
-    res_.imperfectionCheck = std::move(s);
+    std::vector<PoseState> states;
+    for (const PoseResult& r : ok.sim.poses) states.push_back(r.state);
+    adopt(ok.controls, ok.design, ok.f, ok.rms, states, states);
+    res_.imperfectionCheck = std::move(ok.sim);
     char buf[64];
-    std::snprintf(buf, sizeof buf, "%g", t);
+    std::snprintf(buf, sizeof buf, "%.4g", tOk);
     return what + ": the result is the design " + buf + " of the way from " + from + " to it, the nearest " +
-           "tested that is not (RMS " + millimetres(rms) + " as loaded from rest, against " + millimetres(before) + ")";
+           "tested that is not (RMS " + millimetres(ok.rms) + " as loaded from rest, against " + millimetres(before) +
+           ")";
   }
   return what + "; no design between it and " + from + " that was tested is better and not sensitive";
 }

@@ -31,6 +31,17 @@ template <class S> inline S dot(const V3<S>& a, const V3<S>& b) { return a.x * b
 template <class S> inline V3<S> cross(const V3<S>& a, const V3<S>& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
+// The same on Hessian-carrying scalars, each component formed in one pass
+// (ad::productSum, ad::productDifference) instead of through temporaries.
+template <int N, class T>
+inline ad::Hess<N, T> dot(const V3<ad::Hess<N, T>>& a, const V3<ad::Hess<N, T>>& b) {
+  return ad::productSum(a.x, b.x, a.y, b.y, a.z, b.z);
+}
+template <int N, class T>
+inline V3<ad::Hess<N, T>> cross(const V3<ad::Hess<N, T>>& a, const V3<ad::Hess<N, T>>& b) {
+  return {ad::productDifference(a.y, b.z, a.z, b.y), ad::productDifference(a.z, b.x, a.x, b.z),
+          ad::productDifference(a.x, b.y, a.y, b.x)};
+}
 template <class S> inline S norm(const V3<S>& a) {
   using std::sqrt;
   return sqrt(dot(a, a));
