@@ -88,11 +88,15 @@ namespace {
 // A run from the scene's rest shape that ends above this fraction of the
 // initial design's RMS has not met its targets: a second start is tried.
 constexpr double kSecondStartRms = 0.01;
+// At most this many runs more for a scene without normals whose design's
+// equilibria move with the normals derived from its rest shape.
+constexpr int kNormalsRounds = 3;
 }  // namespace
 
 OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const DesignSpace& space, OptimizeOptions& o,
                         const DesignProgress& progress, bool quiet) {
-  auto optimizeWith = [&](const DesignOptimizerOptions& opt) {
+  auto optimizeOn = [&](const SceneModel& m, const DesignSpace& sp, const DesignOptimizerOptions& opt,
+                        const DesignProgress& prog) {
 #ifdef RODMESH_HAVE_NLP
     if (o.method == "sand") {
       SandOptions so;
@@ -101,12 +105,12 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
         const std::size_t eq = kv.find('=');
         so.ipopt.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
       }
-      return optimizeSand(model, space, so, progress);
+      return optimizeSand(m, sp, so, prog);
     }
 #endif
-    return o.method == "newton" ? optimizeNewton(model, space, opt, progress)
-                                : optimizeReduced(model, space, opt, progress);
+    return o.method == "newton" ? optimizeNewton(m, sp, opt, prog) : optimizeReduced(m, sp, opt, prog);
   };
+  auto optimizeWith = [&](const DesignOptimizerOptions& opt) { return optimizeOn(model, space, opt, progress); };
   DesignOptimizerResult r = optimizeWith(o.optimizer);
   // A second start (docs/optimization.md, "A second start"): with the rest
   // shape free, a run from the scene's rest shape that ended by its own
@@ -153,6 +157,109 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       if (secondWins) r = std::move(r2);
     }
   }
+  // A scene without normals has them derived from its rest shape, and the
+  // optimizer keeps them while it designs the rest shape (docs/formats.md);
+  // `rodmesh simulate` of the archived design derives them from the
+  // archived rest shape. Where the equilibria under those normals lie
+  // beyond the gap tolerance from the design's, the run goes on from its
+  // design with the normals derived from its rest shape given (a fixed
+  // point: the rest shape moves less each time, and so do the normals), at
+  // most kNormalsRounds times; the last run's model is the one the design
+  // is archived with, and the check further below measures what is left.
+  std::unique_ptr<Scene> normalsScene;
+  std::unique_ptr<SceneModel> normalsModel;
+  std::unique_ptr<DesignSpace> normalsSpace;
+  const SceneModel* runModel = &model;
+  const DesignSpace* runSpace = &space;
+  for (int round = 0; round < kNormalsRounds; ++round) {
+    if (!(scene.normals.empty() && model.network().normalSource() == "derived" && scene.design.restShape &&
+          (r.outcome == Outcome::Converged || r.outcome == Outcome::Stalled) && r.usable &&
+          r.design.restPositions != scene.vertices))
+      break;
+    double remaining = 0.0;  // --time-limit covers every run
+    if (o.optimizer.timeLimit > 0 && !((remaining = o.optimizer.timeLimit - r.timeSeconds) > 1e-3)) break;
+    Scene at = scene;
+    at.vertices = r.design.restPositions;
+    at.radii = r.design.radii;
+    at.design = DesignSpec{};
+    const SceneModel atModel(at);
+    if (atModel.network().vertexNormals() == runModel->network().vertexNormals() ||
+        atModel.effects().planar != model.effects().planar || atModel.pose(0).numDofs() != model.pose(0).numDofs())
+      break;
+    // How far the design's equilibria move with the derived normals.
+    const SimulationResult withDerived = simulateAll(atModel, Design::fromScene(at), o.optimizer.newton);
+    const SimulationResult withUsed = simulateAll(*runModel, r.design, o.optimizer.newton);
+    if (!withDerived.allConverged || !withUsed.allConverged) break;
+    double gap = 0.0;
+    for (std::size_t p = 0; p < withDerived.poses.size(); ++p)
+      for (std::size_t v = 0; v < withDerived.poses[p].positions.size(); ++v)
+        gap = std::max(gap, (withDerived.poses[p].positions[v] - withUsed.poses[p].positions[v]).norm());
+    const PoseSystem& first = runModel->pose(0);
+    if (!(gap > designedEquilibriumTolerance(r.rms, structureSize(first, r.design, first.restState(r.design)))))
+      break;
+    auto s2 = std::make_unique<Scene>(scene);
+    s2->normals = atModel.network().vertexNormals();
+    auto m2 = std::make_unique<SceneModel>(*s2);
+    auto sp2 = std::make_unique<DesignSpace>(*s2, m2->effects());
+    DesignOptimizerOptions again = o.optimizer;
+    again.startControls = r.controls;
+    again.startTargetPose = -1;
+    if (again.timeLimit > 0) again.timeLimit = remaining;
+    if (!quiet)
+      std::fprintf(stderr,
+                   "optimizer: %s (RMS %.4f mm): the scene gives no normals, and with those derived from the "
+                   "design's rest shape its equilibria move by %.3g mm: once more from its design with those normals\n",
+                   outcomeName(r.outcome), r.rms * 1e3, gap * 1e3);
+    // Progress lines and the history go on from the run before.
+    const int iterationBase = r.iterations;
+    const double timeBase = r.timeSeconds;
+    auto shifted = [&](const DesignIterate& it) {
+      if (!progress) return;
+      DesignIterate moved = it;
+      moved.iteration += iterationBase;
+      moved.elapsed += timeBase;
+      progress(moved);
+    };
+    DesignOptimizerResult r3 = optimizeOn(*m2, *sp2, again, shifted);
+    if (r3.start.empty() || !r3.usable || !(r3.outcome == Outcome::Converged || r3.outcome == Outcome::Stalled)) {
+      r.timeSeconds += r3.timeSeconds;
+      r.evaluationSeconds += r3.evaluationSeconds;
+      r.solverSeconds += r3.solverSeconds;
+      r.evaluations += r3.evaluations;
+      break;
+    }
+    // One run in the archive: the initial design (under the scene's own
+    // derived normals) and the history are the first run's, continued.
+    r3.initialPositions = std::move(r.initialPositions);
+    r3.initialObjective = r.initialObjective;
+    r3.initialRms = r.initialRms;
+    std::vector<DesignIterate> history = std::move(r.history);
+    for (std::size_t i = 1; i < r3.history.size(); ++i) {
+      DesignIterate it = r3.history[i];
+      it.iteration += iterationBase;
+      it.elapsed += timeBase;
+      history.push_back(std::move(it));
+    }
+    r3.history = std::move(history);
+    char buf[240];
+    std::snprintf(buf, sizeof buf,
+                  "; the scene gives no normals: with those derived from the design's rest shape its equilibria "
+                  "moved by %.3g mm, and the run went on from its design (RMS %.4f mm) with those normals given: ",
+                  gap * 1e3, r.rms * 1e3);
+    r3.message = r.message + buf + r3.message;
+    r3.iterations += r.iterations;
+    r3.timeSeconds += r.timeSeconds;
+    r3.evaluationSeconds += r.evaluationSeconds;
+    r3.solverSeconds += r.solverSeconds;
+    r3.evaluations += r.evaluations;
+    r3.start = r.start;
+    r = std::move(r3);
+    normalsScene = std::move(s2);
+    normalsModel = std::move(m2);
+    normalsSpace = std::move(sp2);
+    runModel = normalsModel.get();
+    runSpace = normalsSpace.get();
+  }
   if (!quiet) {
     std::cerr << "optimizer: " << outcomeName(r.outcome) << " (" << r.message << "), " << r.iterations
               << " iterations, " << r.evaluations << " evaluations, " << formatSeconds(r.timeSeconds) << "\n";
@@ -167,7 +274,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // (solver/design_fallback.hh).
   NewtonOptions resolve = o.optimizer.newton;
   resolve.cancel = nullptr;  // the archived design is re-solved whatever stopped the optimizer
-  ArchivedDesign chosen = chooseArchivedDesign(model, space, r, resolve);
+  ArchivedDesign chosen = chooseArchivedDesign(*runModel, *runSpace, r, resolve);
   // A scene inferred planar is optimized and re-solved in plane. When an
   // in-plane equilibrium of the archived design is unstable out of plane
   // (lateral buckling), `rodmesh simulate` solves the scene again in 3D with
@@ -175,7 +282,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // the archived design reproduces it.
   std::unique_ptr<Scene> spatialScene;
   std::unique_ptr<SceneModel> spatialModel;
-  const SceneModel* archiveModel = &model;
+  const SceneModel* archiveModel = runModel;
   std::string unstablePose;
   if (model.effects().planar && !scene.effects)
     for (const PoseResult& p : chosen.simulation.poses)
@@ -209,7 +316,10 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   std::unique_ptr<SceneModel> renormalizedModel;
   {
     const Scene& base = spatialScene ? *spatialScene : scene;
-    if (base.normals.empty() && archiveModel->network().normalSource() == "derived" &&
+    // (The scene's own model says whether its normals are derived: the
+    // normals round's model has them given.)
+    const SceneModel& sourceModel = spatialModel ? *spatialModel : model;
+    if (base.normals.empty() && sourceModel.network().normalSource() == "derived" &&
         chosen.design.restPositions != base.vertices) {
       auto resim = std::make_unique<Scene>(base);
       resim->vertices = chosen.design.restPositions;
@@ -278,7 +388,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     if (p.imperfectionSensitive()) chosen.note += (chosen.note.empty() ? "" : "; ") + imperfectionNote(p);
   }
   if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
-  Archive a = optimizeArchive(scene, *archiveModel, space, r, chosen, o.method);
+  Archive a = optimizeArchive(scene, *archiveModel, *runSpace, r, chosen, o.method);
   a.version = versionString();
   if (o.method == "reduced")
     a.extraRootAttributes["design_derivatives"] = designDerivativesName(o.optimizer.designDerivatives);

@@ -545,6 +545,23 @@ bool DesignDriver::seedTowardsDesigned(const std::vector<PoseState>& path, std::
 constexpr double kTargetStartGain = 0.25;
 
 std::string DesignDriver::startFromTargets() {
+  if (opt_.startControls) {
+    const ControlValues& c = *opt_.startControls;
+    if (c.radii.rows() != res_.controls.radii.rows() || c.radii.cols() != res_.controls.radii.cols() ||
+        c.displacement.rows() != res_.controls.displacement.rows() ||
+        c.displacement.cols() != res_.controls.displacement.cols())
+      return "";
+    const Design d = space_.toDesign(c);
+    std::vector<PoseState> path = restStates(d);
+    double f = 0.0, rms = 0.0;
+    if (!solveAndScore(d, path, f, rms)) return "";
+    const OnPathDesign given{c, d, f, rms, path, "the design the run was given"};
+    adopt(given.controls, given.design, f, rms, path, path);
+    if (f < bestOnPath_.objective) bestOnPath_ = given;
+    start_ = c;
+    res_.start = given.label;
+    return "the run started from " + given.label + " (RMS " + millimetres(rms) + " as loaded from rest)";
+  }
   const bool forced = opt_.startTargetPose >= 0;  // a second start: that pose's target, however little it gains
   if (!scene_.design.restShape || !(opt_.startFromTargets || forced)) return "";
   const int K = model_.numPoses();
@@ -697,6 +714,8 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   const std::string startNote = startFromTargets();
   if (interrupted()) return finish(Outcome::Interrupted, "interrupted");
   if (timeUp()) return finish(Outcome::TimeLimit, "time limit reached");
+  if (opt_.startControls && startNote.empty())
+    return finish(Outcome::InvalidProblem, "the design the run was given as its start cannot be solved from rest");
   if (opt_.startTargetPose >= 0 && startNote.empty())
     return finish(Outcome::InvalidProblem,
                   "the rest shape of the start's target cannot be solved from rest or does no better than the initial "

@@ -35,6 +35,7 @@
 
 #include <limits>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -158,6 +159,13 @@ struct DesignOptimizerOptions {
   // once (InvalidProblem) when it cannot be solved from rest or does no
   // better than the initial design. -1: the rule of startFromTargets.
   int startTargetPose = -1;
+  // A run that goes on from a design found before (apps/run_optimize.cc:
+  // a scene without normals run again with the normals derived from its
+  // optimized rest shape): the schedule starts from these control values,
+  // solved from rest, instead of the initial design and the targets' rest
+  // shapes; the run ends at once (InvalidProblem) when they cannot be solved
+  // from rest. Unset: the rules above.
+  std::optional<ControlValues> startControls;
   // Called on the monitor's thread with every newly confirmed best design.
   std::function<void(const ConfirmedDesign&)> onConfirmed;
   std::string isValid() const;
