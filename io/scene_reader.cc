@@ -24,11 +24,7 @@
 namespace rodmesh {
 namespace {
 
-// Sine of the angle below which a reference normal counts as lying along an
-// edge: far below any surface normal's angle to its rods, far above the
-// 1e-6 at which the edge frame falls back to an arbitrary perpendicular
-// (model/network.cc, edgeFrameFromNormal).
-constexpr double kNormalAlongEdgeSine = 1e-4;
+using limits::kNormalAlongEdgeSine;
 
 using json = nlohmann::json;
 

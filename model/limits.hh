@@ -44,5 +44,13 @@ constexpr double kMaxWeight = 1e6;
 // The interpolation weights are Bernstein polynomials of degree n - 1 whose
 // binomial coefficients leave double precision for n above about 1030.
 constexpr int kMaxControlPoints = 1000;
+// Sine of the angle below which a reference normal counts as lying along an
+// edge, where it leaves the cross section's orientation undefined: the
+// scene reader refuses such normals, and the rest frames of a designed rest
+// shape that turns an edge that close to its normal are undefined too
+// (model/energies/rod_math.hh, restFrameOf). Far below any surface normal's
+// angle to its rods, far above the 1e-6 at which the edge frame falls back
+// to an arbitrary perpendicular (model/network.cc, edgeFrameFromNormal).
+constexpr double kNormalAlongEdgeSine = 1e-4;
 
 }  // namespace rodmesh::limits

@@ -7,9 +7,11 @@
 #pragma once
 
 #include "model/ad.hh"
+#include "model/limits.hh"
 
 #include <Eigen/Core>
 #include <cmath>
+#include <limits>
 
 namespace rodmesh {
 
@@ -103,14 +105,24 @@ struct FrameT {
 
 // Rest frame of an edge vector E whose reference normal is the constant unit
 // vector n: d2 = normalise(n - (n.t) t), d1 = d2 x t. A smooth function of E
-// while n is not parallel to E (see docs/model.md).
+// while n is not parallel to E (see docs/model.md). Within
+// limits::kNormalAlongEdgeSine of parallel, where the scene reader refuses
+// a normal, the frame is undefined and comes out NaN: a designed rest shape
+// that turns an edge onto its normal is a failed evaluation, which the
+// optimizers step back from, not a design `simulate` could not read.
 template <class S>
 inline FrameT<S> restFrameOf(const V3<S>& E, const Eigen::Vector3d& n) {
   FrameT<S> f;
   f.t = normalized(E);
   const S nt = dot(n, f.t);
   const V3<S> nn{S(n[0]), S(n[1]), S(n[2])};
-  f.d2 = normalized(nn - nt * f.t);
+  const V3<S> across = nn - nt * f.t;
+  if (!(ad::value(norm(across)) >= limits::kNormalAlongEdgeSine)) {
+    const S nan(std::numeric_limits<double>::quiet_NaN());
+    f.t = f.d1 = f.d2 = V3<S>{nan, nan, nan};
+    return f;
+  }
+  f.d2 = normalized(across);
   f.d1 = cross(f.d2, f.t);
   return f;
 }
