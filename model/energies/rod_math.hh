@@ -117,7 +117,8 @@ inline FrameT<S> restFrameOf(const V3<S>& E, const Eigen::Vector3d& n) {
   const S nt = dot(n, f.t);
   const V3<S> nn{S(n[0]), S(n[1]), S(n[2])};
   const V3<S> across = nn - nt * f.t;
-  if (!(ad::value(norm(across)) >= limits::kNormalAlongEdgeSine)) {
+  const double ax = ad::value(across.x), ay = ad::value(across.y), az = ad::value(across.z);
+  if (!(std::sqrt(ax * ax + ay * ay + az * az) >= limits::kNormalAlongEdgeSine)) {
     const S nan(std::numeric_limits<double>::quiet_NaN());
     f.t = f.d1 = f.d2 = V3<S>{nan, nan, nan};
     return f;
