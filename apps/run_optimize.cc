@@ -91,6 +91,35 @@ constexpr double kSecondStartRms = 0.01;
 // At most this many runs more for a scene without normals whose design's
 // equilibria move with the normals derived from its rest shape.
 constexpr int kNormalsRounds = 3;
+
+// Adds the cost of another run (time, evaluations) to `into`'s.
+void addRunCost(DesignOptimizerResult& into, const DesignOptimizerResult& other) {
+  into.timeSeconds += other.timeSeconds;
+  into.evaluationSeconds += other.evaluationSeconds;
+  into.solverSeconds += other.solverSeconds;
+  into.evaluations += other.evaluations;
+}
+
+// The scene `simulate` reads for design `d` of `base`: its rest positions
+// and radii, no design block (normals, if derived, then come from d's rest
+// shape).
+Scene sceneOfDesign(const Scene& base, const Design& d) {
+  Scene s = base;
+  s.vertices = d.restPositions;
+  s.radii = d.radii;
+  s.design = DesignSpec{};
+  return s;
+}
+
+// The largest distance between the same vertex of the same pose in two
+// simulations of one scene.
+double largestDistance(const SimulationResult& a, const SimulationResult& b) {
+  double gap = 0.0;
+  for (std::size_t p = 0; p < a.poses.size() && p < b.poses.size(); ++p)
+    for (std::size_t v = 0; v < a.poses[p].positions.size() && v < b.poses[p].positions.size(); ++v)
+      gap = std::max(gap, (a.poses[p].positions[v] - b.poses[p].positions[v]).norm());
+  return gap;
+}
 }  // namespace
 
 OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const DesignSpace& space, OptimizeOptions& o,
@@ -150,10 +179,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       DesignOptimizerResult& kept = secondWins ? r2 : r;
       const DesignOptimizerResult& other = secondWins ? r : r2;
       kept.message += buf;
-      kept.timeSeconds += other.timeSeconds;
-      kept.evaluationSeconds += other.evaluationSeconds;
-      kept.solverSeconds += other.solverSeconds;
-      kept.evaluations += other.evaluations;
+      addRunCost(kept, other);
       if (secondWins) r = std::move(r2);
     }
   }
@@ -178,10 +204,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       break;
     double remaining = 0.0;  // --time-limit covers every run
     if (o.optimizer.timeLimit > 0 && !((remaining = o.optimizer.timeLimit - r.timeSeconds) > 1e-3)) break;
-    Scene at = scene;
-    at.vertices = r.design.restPositions;
-    at.radii = r.design.radii;
-    at.design = DesignSpec{};
+    const Scene at = sceneOfDesign(scene, r.design);
     const SceneModel atModel(at);
     if (atModel.network().vertexNormals() == runModel->network().vertexNormals() ||
         atModel.effects().planar != model.effects().planar || atModel.pose(0).numDofs() != model.pose(0).numDofs())
@@ -190,10 +213,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     const SimulationResult withDerived = simulateAll(atModel, Design::fromScene(at), o.optimizer.newton);
     const SimulationResult withUsed = simulateAll(*runModel, r.design, o.optimizer.newton);
     if (!withDerived.allConverged || !withUsed.allConverged) break;
-    double gap = 0.0;
-    for (std::size_t p = 0; p < withDerived.poses.size(); ++p)
-      for (std::size_t v = 0; v < withDerived.poses[p].positions.size(); ++v)
-        gap = std::max(gap, (withDerived.poses[p].positions[v] - withUsed.poses[p].positions[v]).norm());
+    const double gap = largestDistance(withDerived, withUsed);
     const PoseSystem& first = runModel->pose(0);
     if (!(gap > designedEquilibriumTolerance(r.rms, structureSize(first, r.design, first.restState(r.design)))))
       break;
@@ -222,10 +242,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     };
     DesignOptimizerResult r3 = optimizeOn(*m2, *sp2, again, shifted);
     if (r3.start.empty() || !r3.usable || !(r3.outcome == Outcome::Converged || r3.outcome == Outcome::Stalled)) {
-      r.timeSeconds += r3.timeSeconds;
-      r.evaluationSeconds += r3.evaluationSeconds;
-      r.solverSeconds += r3.solverSeconds;
-      r.evaluations += r3.evaluations;
+      addRunCost(r, r3);
       break;
     }
     // One run in the archive: the initial design (under the scene's own
@@ -248,10 +265,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
                   gap * 1e3, r.rms * 1e3);
     r3.message = r.message + buf + r3.message;
     r3.iterations += r.iterations;
-    r3.timeSeconds += r.timeSeconds;
-    r3.evaluationSeconds += r.evaluationSeconds;
-    r3.solverSeconds += r.solverSeconds;
-    r3.evaluations += r.evaluations;
+    addRunCost(r3, r);
     r3.start = r.start;
     r = std::move(r3);
     normalsScene = std::move(s2);
@@ -321,19 +335,13 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     const SceneModel& sourceModel = spatialModel ? *spatialModel : model;
     if (base.normals.empty() && sourceModel.network().normalSource() == "derived" &&
         chosen.design.restPositions != base.vertices) {
-      auto resim = std::make_unique<Scene>(base);
-      resim->vertices = chosen.design.restPositions;
-      resim->radii = chosen.design.radii;
-      resim->design = DesignSpec{};
+      auto resim = std::make_unique<Scene>(sceneOfDesign(base, chosen.design));
       auto resimModel = std::make_unique<SceneModel>(*resim);
       if (resimModel->network().vertexNormals() != archiveModel->network().vertexNormals() &&
           resimModel->effects().planar == archiveModel->effects().planar &&
           resimModel->pose(0).numDofs() == archiveModel->pose(0).numDofs()) {
         SimulationResult sim = simulateAll(*resimModel, Design::fromScene(*resim), resolve);
-        double gap = 0.0;
-        for (std::size_t p = 0; p < sim.poses.size() && p < chosen.simulation.poses.size(); ++p)
-          for (std::size_t v = 0; v < sim.poses[p].positions.size(); ++v)
-            gap = std::max(gap, (sim.poses[p].positions[v] - chosen.simulation.poses[p].positions[v]).norm());
+        const double gap = largestDistance(sim, chosen.simulation);
         // Differences at the solver's own position tolerance (1e-9 of the
         // structure's size) are round-off of the derivation, not of the design.
         const PoseSystem& first = archiveModel->pose(0);
