@@ -100,17 +100,6 @@ void addRunCost(DesignOptimizerResult& into, const DesignOptimizerResult& other)
   into.evaluations += other.evaluations;
 }
 
-// The scene `simulate` reads for design `d` of `base`: its rest positions
-// and radii, no design block (normals, if derived, then come from d's rest
-// shape).
-Scene sceneOfDesign(const Scene& base, const Design& d) {
-  Scene s = base;
-  s.vertices = d.restPositions;
-  s.radii = d.radii;
-  s.design = DesignSpec{};
-  return s;
-}
-
 // The largest distance between the same vertex of the same pose in two
 // simulations of one scene.
 double largestDistance(const SimulationResult& a, const SimulationResult& b) {

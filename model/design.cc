@@ -22,4 +22,12 @@ void Design::fromVector(const Eigen::VectorXd& p) {
   }
 }
 
+Scene sceneOfDesign(const Scene& base, const Design& d) {
+  Scene s = base;
+  s.vertices = d.restPositions;
+  s.radii = d.radii;
+  s.design = DesignSpec{};
+  return s;
+}
+
 }  // namespace rodmesh

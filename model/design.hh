@@ -29,4 +29,10 @@ struct Design {
   int radiusIndex(int vertex, int which) const { return static_cast<int>(3 * restPositions.size()) + 2 * vertex + which; }
 };
 
+// The scene `rodmesh simulate` reads for design `d` of scene `base` (what
+// acceptance re-simulates an optimize archive with): `base` with d's rest
+// positions as vertices and d's radii, without its design block. Normals
+// the scene does not give are then derived from d's rest shape.
+Scene sceneOfDesign(const Scene& base, const Design& d);
+
 }  // namespace rodmesh

@@ -39,7 +39,7 @@ DesignOptimizerResult reducedRun(const SceneModel& model, const DesignSpace& spa
 // positions and radii, solved from rest as `rodmesh simulate` solves it
 // (tests/cli/optimize_cli_test.cc runs the executable itself).
 SimulationResult resimulate(const Scene& scene, const Design& d, const NewtonOptions& newton) {
-  const Scene s = testutil::withDesign(scene, d);
+  const Scene s = sceneOfDesign(scene, d);
   SceneModel m(s);
   return simulateAll(m, Design::fromScene(s), newton);
 }

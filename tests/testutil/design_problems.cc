@@ -49,14 +49,6 @@ void setScaledRadiiTargets(Scene& s, double radiusScale) {
   for (std::size_t p = 0; p < s.poses.size(); ++p) s.poses[p].target = sim.poses[p].positions;
 }
 
-Scene withDesign(const Scene& s, const Design& d) {
-  Scene out = s;
-  out.vertices = d.restPositions;
-  out.radii = d.radii;
-  out.design = DesignSpec{};
-  return out;
-}
-
 void freeRadii(Scene& s) {
   s.design.present = true;
   s.design.radii = true;

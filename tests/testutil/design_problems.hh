@@ -22,9 +22,6 @@ Scene designNetwork(bool planar);
 // radiusScale (uniform radii stay representable by the control points).
 void setScaledRadiiTargets(Scene& s, double radiusScale);
 
-// The scene acceptance re-simulates an optimize archive with: `s` carrying
-// the design's rest positions (as vertices) and radii, without its design block.
-Scene withDesign(const Scene& s, const Design& d);
 
 // Radii free within [0.5, 2] mm, 4 control points per rod.
 void freeRadii(Scene& s);
