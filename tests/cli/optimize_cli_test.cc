@@ -323,6 +323,26 @@ TEST_F(OptimizeCli, ADesignWhoseNormalsAreDerivedIsArchivedAsSimulateSolvesIt) {
   // What difference is left is measured and said.
   EXPECT_NE(a.optimize->message.find("as archived, the poses lie up to"), std::string::npos) << a.optimize->message;
   expectSimulateReproduces("spider.json", a, 1e-9);
+  // One run in the archive: the history goes on from the first run's
+  // iterations and time (not restarting at 0), and the initial design's
+  // equilibria are those simulate gives for the scene itself. (The spider's
+  // initial radii are round and its rods straight, so the normals runs'
+  // models give the same initial equilibria: this part checks the archive's
+  // initial design, not which run's copy of it was kept.)
+  ASSERT_TRUE(a.history.has_value());
+  const ArchiveHistory& h = *a.history;
+  ASSERT_GT(h.iteration.size(), 2u);
+  EXPECT_EQ(h.iteration.front(), 0);
+  for (std::size_t i = 1; i < h.iteration.size(); ++i) {
+    EXPECT_GT(h.iteration[i], h.iteration[i - 1]) << "history entry " << i;
+    EXPECT_GE(h.timeSeconds[i], h.timeSeconds[i - 1]) << "history entry " << i;
+  }
+  ASSERT_EQ(run("simulate spider.json -o initial.h5", &err), 0) << err;
+  const Archive initial = readArchive(path("initial.h5"));
+  ASSERT_EQ(initial.poses.size(), a.poses.size());
+  for (std::size_t p = 0; p < a.poses.size(); ++p)
+    EXPECT_LT((initial.poses[p].positions - a.poses[p].initialPositions).cwiseAbs().maxCoeff(), 1e-12)
+        << a.poses[p].name;
 }
 
 // tests/cli/strip_roll_twist.json (benchmarks/sweep's case): a strip with
