@@ -178,9 +178,10 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // archived rest shape. Where the equilibria under those normals lie
   // beyond the gap tolerance from the design's, the run goes on from its
   // design with the normals derived from its rest shape given (a fixed
-  // point: the rest shape moves less each time, and so do the normals), at
-  // most kNormalsRounds times; the last run's model is the one the design
-  // is archived with, and the check further below measures what is left.
+  // point: the rest shape moves less each time, and so do the normals; each
+  // such run is one joint phase), at most kNormalsRounds times; the last
+  // run's model is the one the design is archived with, and the check
+  // further below measures what is left.
   std::unique_ptr<Scene> normalsScene;
   std::unique_ptr<SceneModel> normalsModel;
   std::unique_ptr<DesignSpace> normalsSpace;
@@ -213,6 +214,12 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     DesignOptimizerOptions again = o.optimizer;
     again.startControls = r.controls;
     again.startTargetPose = -1;
+    // The design has been through the schedule once: one joint phase with
+    // every control point continues it. The paper schedule would run its
+    // radius levels and rest-shape rounds again and move the rest shape as
+    // far as the first run did, and the normals with it, so that the gap
+    // need not shrink from one run to the next.
+    again.schedule = Schedule::Joint;
     if (again.timeLimit > 0) again.timeLimit = remaining;
     if (!quiet)
       std::fprintf(stderr,
