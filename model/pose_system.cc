@@ -2,7 +2,10 @@
 
 #include "model/pose_system_detail.hh"
 
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
@@ -36,6 +39,7 @@ PoseSystem::PoseSystem(const Scene& scene, const RodNetwork& network, const Effe
     heldExplicit_[c.vertex] = false;  // a clamp holds the vertex at rest
     clamped[c.vertex] = true;
   }
+  buildHandles();
   vertexDof_.assign(nv, -1);
   int n = 0;
   for (int v = 0; v < nv; ++v)
@@ -124,15 +128,107 @@ Eigen::VectorXd PoseSystem::materialTwists(const PoseState& s, const Design& d) 
   return th;
 }
 
+// Handles (docs/model.md, "The loading path"): the vertices held at explicit
+// positions, grouped by the edges between them. A group whose prescribed
+// positions are a rigid motion of the scene's rest positions, up to
+// kRigidHandleResidual of its largest displacement, turns and moves rigidly
+// as the load factor grows, as a handle in a hand does; interpolating each
+// vertex on a straight line instead would shorten the handle on the way
+// (by cos(angle / 2) at half the load: 29% for a quarter turn) and, at half
+// a turn, make its vertices meet. Other groups, and single vertices, move
+// on straight lines. The rotation is the least-squares one (Kabsch: the SVD
+// of the cross-covariance; about the plane's normal in a planar scene; the
+// smallest one taking the line onto its image when the group is straight).
+void PoseSystem::buildHandles() {
+  constexpr double kRigidHandleResidual = 1e-2;
+  const int nv = static_cast<int>(held_.size());
+  handleOf_.assign(nv, -1);
+  heldResidual_.assign(nv, Vec3::Zero());
+  std::vector<int> parent(nv);
+  for (int v = 0; v < nv; ++v) parent[v] = v;
+  auto find = [&](int v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const Edge& e : net_.edges())
+    if (heldExplicit_[e.a] && heldExplicit_[e.b]) parent[find(e.a)] = find(e.b);
+  std::vector<std::vector<int>> groups(nv);
+  for (int v = 0; v < nv; ++v)
+    if (heldExplicit_[v]) groups[find(v)].push_back(v);
+  const std::vector<Vec3>& S = scene_.vertices;
+  for (const std::vector<int>& g : groups) {
+    if (g.size() < 2) continue;
+    Vec3 cS = Vec3::Zero(), cP = Vec3::Zero();
+    for (int v : g) {
+      cS += S[v];
+      cP += heldTarget_[v];
+    }
+    cS /= static_cast<double>(g.size());
+    cP /= static_cast<double>(g.size());
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();  // sum of (S - cS)(P - cP)^T
+    double largestMove = 0.0, spread = 0.0;
+    for (int v : g) {
+      A += (S[v] - cS) * (heldTarget_[v] - cP).transpose();
+      largestMove = std::max(largestMove, (heldTarget_[v] - S[v]).norm());
+      spread = std::max(spread, (S[v] - cS).norm());
+    }
+    if (!(largestMove > 0.0) || !(spread > 0.0)) continue;
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    if (D_ == 2) {
+      // About the plane's normal: the angle that best turns the in-plane
+      // offsets onto their images.
+      const Eigen::Matrix2d A2 = fx_.planeBasis.transpose() * A * fx_.planeBasis;
+      const double angle = std::atan2(A2(0, 1) - A2(1, 0), A2(0, 0) + A2(1, 1));
+      const Eigen::Vector3d n = fx_.planeBasis.col(0).cross(fx_.planeBasis.col(1)).normalized();
+      R = Eigen::AngleAxisd(angle, n).toRotationMatrix();
+    } else {
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      const Eigen::Vector3d sv = svd.singularValues();
+      if (!(sv(1) > 1e-9 * sv(0))) {
+        // A straight group: the smallest rotation taking its line onto the
+        // line of its image (U's and V's first columns, with sv(0) >= 0).
+        const Eigen::Vector3d a = svd.matrixU().col(0), b = svd.matrixV().col(0);
+        R = Eigen::Quaterniond::FromTwoVectors(a, b).toRotationMatrix();
+      } else {
+        Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+        D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+        R = svd.matrixV() * D * svd.matrixU().transpose();
+      }
+    }
+    double largestResidual = 0.0;
+    for (int v : g) largestResidual = std::max(largestResidual, (heldTarget_[v] - (R * (S[v] - cS) + cP)).norm());
+    if (!(largestResidual <= kRigidHandleResidual * largestMove)) continue;
+    const Eigen::AngleAxisd aa(R);
+    if (!std::isfinite(aa.angle()) || !aa.axis().allFinite()) continue;
+    const int h = static_cast<int>(handles_.size());
+    handles_.push_back({aa.axis().normalized(), aa.angle(), cS, cP - cS});
+    for (int v : g) {
+      handleOf_[v] = h;
+      heldResidual_[v] = heldTarget_[v] - (R * (S[v] - cS) + cP);
+    }
+  }
+}
+
 // A held vertex sits at its rest position under the current design, or, when
-// fixed at an explicit position, moves there from rest with the load factor.
+// fixed at an explicit position, moves there from rest with the load factor
+// L: x = (1 - L) r + L p for rest position r and prescribed position p, or,
+// on a handle (buildHandles), x = (1 - L) r + L s + m(L) - s with s the
+// scene's rest position and m(L) its image under the handle's motion at L
+// (m(0) = s, m(1) = p): the same at L = 0 and 1, and the same derivative
+// (1 - L) with respect to the rest position (heldDesignCoefficient).
 // A planar scene keeps held vertices in its plane (their rest positions are
 // projected onto it), so that its in-plane unknowns describe it exactly.
 Vec3 PoseSystem::heldPosition(int v, const Design& d, double loadFactor) const {
   Vec3 r = d.restPositions[v];
   if (D_ == 2) r = fx_.planeOrigin + fx_.planeBasis * (fx_.planeBasis.transpose() * (r - fx_.planeOrigin));
   if (!heldExplicit_[v]) return r;
-  return r + loadFactor * (heldTarget_[v] - r);
+  const int h = handleOf_[v];
+  if (h < 0) return r + loadFactor * (heldTarget_[v] - r);
+  const HandleMotion& m = handles_[h];
+  const Vec3& s = scene_.vertices[v];
+  const Vec3 moved = Eigen::AngleAxisd(loadFactor * m.angle, m.axis) * (s - m.centre) + m.centre +
+                     loadFactor * (m.shift + heldResidual_[v]);
+  return (1.0 - loadFactor) * r + loadFactor * s + moved - s;
 }
 
 double PoseSystem::heldDesignCoefficient(int v, double loadFactor) const {

@@ -274,6 +274,22 @@ class PoseSystem {
   std::vector<bool> held_;
   std::vector<bool> heldExplicit_;  // held at an explicit position (not at rest)
   std::vector<Vec3> heldTarget_;  // explicit prescribed position at load factor 1
+  // A handle: vertices held at explicit positions and joined by edges, whose
+  // prescribed motion is (nearly) rigid, moves along the screw of that
+  // motion as the load factor grows (heldPosition): the rotation's angle
+  // grows with it about a fixed axis through the centroid, the centroid
+  // moves along a straight line, and what is not rigid (`heldResidual_`)
+  // is added in proportion.
+  struct HandleMotion {
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+    double angle = 0.0;                         // rad, in [0, pi]
+    Vec3 centre = Vec3::Zero();                 // centroid of the scene's rest positions
+    Vec3 shift = Vec3::Zero();                  // centroid at load factor 1 minus centre
+  };
+  std::vector<HandleMotion> handles_;
+  std::vector<int> handleOf_;       // per vertex: index into handles_, -1: straight from rest to its position
+  std::vector<Vec3> heldResidual_;  // prescribed position minus the rigid motion's image of the rest position
+  void buildHandles();
 
   // Every block's elements (model/terms/term_list.hh), built once.
   std::shared_ptr<const detail::TermStorage> terms_;

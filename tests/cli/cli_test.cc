@@ -254,6 +254,26 @@ TEST_F(CliTest, FullModelConvergesBeyondLateralTorsionalBuckling) {
   }
 }
 
+// tests/cli/strip_roll180.json (a sweep case): a strip of 84 vertices
+// clamped at one end, its other end (a handle of six vertices held at
+// explicit positions) rolled by 120 and by 180 degrees. Ramping each
+// held vertex on a straight line, the half turn made two handle vertices
+// meet at load factor 1/2 (a zero-length edge: "energy or forces are not
+// finite", exit 1); a rigidly moved handle now turns rigidly on the way.
+TEST_F(CliTest, AHandleRolledHalfATurnIsLoadedAlongItsRotation) {
+  copySource("strip_roll180.json");
+  const RunResult r = run("simulate strip_roll180.json -o out.h5");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Archive a = readArchive(path("out.h5"));
+  EXPECT_EQ(a.status, "converged");
+  ASSERT_EQ(a.poses.size(), 2u);
+  for (const ArchivePose& p : a.poses) {
+    EXPECT_EQ(p.status, "converged") << p.name;
+    EXPECT_EQ(p.stable, 1) << p.name;
+    EXPECT_TRUE(p.positions.allFinite()) << p.name;
+  }
+}
+
 TEST_F(CliTest, QuietPrintsNothingOnSuccess) {
   copySource("cantilever.json");
   for (const std::string args : {"--quiet simulate cantilever.json -o a.h5", "simulate cantilever.json -o b.h5 --quiet",
