@@ -319,13 +319,19 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       // The ratio only where both RMS errors are positive, and said the way
       // it went: a run can end worse than its initial design on the RMS
       // (the objective weighs poses by their weights).
+      // Without the initial design's equilibria (a run that could not
+      // solve them) there is nothing to compare with.
       std::string change;
-      if (rms && *rms > 0 && run.initialRms > 0 && std::isfinite(run.initialRms)) {
-        const double ratio = run.initialRms / *rms, factor = ratio >= 1.0 ? ratio : 1.0 / ratio;
+      if (rms && *rms > 0 && run.initialRms && *run.initialRms > 0 && std::isfinite(*run.initialRms)) {
+        const double ratio = *run.initialRms / *rms, factor = ratio >= 1.0 ? ratio : 1.0 / ratio;
         change = formatNumber(factor < 100.0 ? ", %.2fx" : ", %.3gx", factor) + (ratio >= 1.0 ? " lower" : " higher");
       }
-      std::fprintf(stderr, "RMS error %.4f mm (initial design %.4f mm%s)\n", rms.value_or(0.0) * 1e3,
-                   run.initialRms * 1e3, change.c_str());
+      if (run.initialRms)
+        std::fprintf(stderr, "RMS error %.4f mm (initial design %.4f mm%s)\n", rms.value_or(0.0) * 1e3,
+                     *run.initialRms * 1e3, change.c_str());
+      else
+        std::fprintf(stderr, "RMS error %.4f mm (not every pose of the initial design could be solved)\n",
+                     rms.value_or(0.0) * 1e3);
       std::cerr << "wrote " << o.output << " (" << a.status << ")\n";
     }
     return converged ? kExitDone : kExitNotConverged;

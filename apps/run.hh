@@ -76,7 +76,7 @@ void checkOptimizeOptions(OptimizeOptions& o);
 
 struct OptimizeRun {
   Archive archive;          // what `rodmesh optimize` writes
-  double initialRms = 0.0;  // m, RMS error of the initial design
+  std::optional<double> initialRms;  // m, RMS error of the initial design; unset when it was not solved
 };
 
 // Runs the optimizer (options checked), re-solves every pose from rest under

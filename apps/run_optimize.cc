@@ -399,20 +399,21 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   if (!quiet) {
     for (std::size_t p = 0; p < a.poses.size(); ++p) {
       const ArchivePose& ap = a.poses[p];
-      const double initialRms =
-          ap.initialPositions.rows() > 0 && ap.target.rows() == ap.initialPositions.rows()
-              ? std::sqrt((ap.initialPositions - ap.target).squaredNorm() / static_cast<double>(ap.target.rows()))
-              : 0.0;
-      std::fprintf(stderr, "pose %zu '%s': re-solved from rest under %s: %s, RMS %.4f mm (initial design %.4f mm)", p,
-                   ap.name.c_str(), chosen.label.c_str(), ap.status.c_str(), ap.rmsError.value_or(0.0) * 1e3,
-                   initialRms * 1e3);
+      std::fprintf(stderr, "pose %zu '%s': re-solved from rest under %s: %s, RMS %.4f mm", p, ap.name.c_str(),
+                   chosen.label.c_str(), ap.status.c_str(), ap.rmsError.value_or(0.0) * 1e3);
+      if (ap.initialPositions.rows() > 0 && ap.target.rows() == ap.initialPositions.rows())
+        std::fprintf(stderr, " (initial design %.4f mm)",
+                     std::sqrt((ap.initialPositions - ap.target).squaredNorm() / static_cast<double>(ap.target.rows())) *
+                         1e3);
       if (ap.equilibriumGap) std::fprintf(stderr, ", gap to the optimizer's equilibrium %.3e m", *ap.equilibriumGap);
       std::cerr << "\n";
       const NewtonReport& rep = chosen.simulation.poses[p].report;
       if (!rep.converged()) std::cerr << "  reason: " << rep.message << "\n";
     }
   }
-  return {std::move(a), r.initialRms};
+  std::optional<double> initialRms;
+  if (!r.initialPositions.empty()) initialRms = r.initialRms;
+  return {std::move(a), initialRms};
 }
 
 }  // namespace rodmesh::cli

@@ -309,6 +309,23 @@ TEST_F(OptimizeCli, TheSummarySaysWhetherTheRmsWentDownOrUp) {
 // that second run this 26-vertex spider's archive lay 0.006 mm from the
 // designed equilibria, beyond the gap tolerance (not_converged, exit 1);
 // with it, 2e-5 mm: converged.
+// A scene whose initial design has no equilibrium (two vertices of a rod
+// prescribed onto one point: a zero-length edge at the full load) is a
+// failed run, exit 1. The summary line said "initial design 0.0000 mm",
+// as if the initial design met its targets; the initial design's RMS is
+// unknown, and the line says so.
+TEST_F(OptimizeCli, AnInitialDesignWithoutEquilibriumIsNotSaidToHaveNoError) {
+  nlohmann::json j = nlohmann::json::parse(clitest::readText(path("scene.json")));
+  const auto& v14 = j["vertices"][14];
+  j["poses"][0]["fixed"] = {{{"vertex", 14}, {"position", v14}}, {{"vertex", 15}, {"position", v14}}};
+  clitest::writeText(path("bad.json"), j.dump());
+  std::string err;
+  ASSERT_EQ(run("optimize bad.json -o out.h5", &err), 1) << err;
+  EXPECT_EQ(readArchive(path("out.h5")).status, "failed");
+  EXPECT_NE(err.find("(not every pose of the initial design could be solved)"), std::string::npos) << err;
+  EXPECT_EQ(err.find("initial design 0.0000 mm"), std::string::npos) << err;
+}
+
 TEST_F(OptimizeCli, ADesignWhoseNormalsAreDerivedIsArchivedAsSimulateSolvesIt) {
   clitest::writeText(path("spider.json"), clitest::readText(kSourceDir + "/tests/cli/spider_no_normals.json"));
   std::string err;
