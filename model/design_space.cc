@@ -274,7 +274,23 @@ constexpr double kRoundingSlack = 1e-12;
 
 Design DesignSpace::toDesign(const ControlValues& controls) const {
   assert(controls.radii.rows() == numControlPoints() && controls.displacement.rows() == numControlPoints());
-  const Eigen::MatrixXd radii = W_ * controls.radii;
+  // Each vertex's radii as its first control value plus the weighted
+  // differences from it: the same convex combination, but exactly the
+  // control value where the vertex's control values are equal (the initial
+  // design then has the scene's radii to the last bit, not a rounding of
+  // them, and `simulate` of the scene solves the same design).
+  Eigen::MatrixXd radii(W_.rows(), 2);
+  for (Eigen::Index v = 0; v < W_.outerSize(); ++v) {
+    Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(W_, v);
+    if (!it) {
+      radii.row(v).setZero();
+      continue;
+    }
+    const Eigen::RowVector2d first = controls.radii.row(it.col());
+    Eigen::RowVector2d sum = Eigen::RowVector2d::Zero();
+    for (; it; ++it) sum += it.value() * (controls.radii.row(it.col()) - first);
+    radii.row(v) = first + sum;
+  }
   Eigen::MatrixXd disp = W_ * controls.displacement;
   if (planar_) disp = disp * (planeBasis_ * planeBasis_.transpose());  // rows: (P d)^T = d^T P
   Design d;
