@@ -128,22 +128,10 @@ Eigen::VectorXd PoseSystem::materialTwists(const PoseState& s, const Design& d) 
   return th;
 }
 
-// Handles (docs/model.md, "The loading path"): the vertices held at explicit
-// positions, grouped by the edges between them. A group whose prescribed
-// positions are a rigid motion of the scene's rest positions, up to
-// kRigidHandleResidual of its largest displacement, turns and moves rigidly
-// as the load factor grows, as a handle in a hand does; interpolating each
-// vertex on a straight line instead would shorten the handle on the way
-// (by cos(angle / 2) at half the load: 29% for a quarter turn) and, at half
-// a turn, make its vertices meet. Other groups, and single vertices, move
-// on straight lines. The rotation is the least-squares one (Kabsch: the SVD
-// of the cross-covariance; about the plane's normal in a planar scene; the
-// smallest one taking the line onto its image when the group is straight).
+// Handles: the vertices held at explicit positions, grouped by the edges
+// between them (groups of two or more).
 void PoseSystem::buildHandles() {
-  constexpr double kRigidHandleResidual = 1e-2;
   const int nv = static_cast<int>(held_.size());
-  handleOf_.assign(nv, -1);
-  heldResidual_.assign(nv, Vec3::Zero());
   std::vector<int> parent(nv);
   for (int v = 0; v < nv; ++v) parent[v] = v;
   auto find = [&](int v) {
@@ -155,80 +143,100 @@ void PoseSystem::buildHandles() {
   std::vector<std::vector<int>> groups(nv);
   for (int v = 0; v < nv; ++v)
     if (heldExplicit_[v]) groups[find(v)].push_back(v);
-  const std::vector<Vec3>& S = scene_.vertices;
-  for (const std::vector<int>& g : groups) {
-    if (g.size() < 2) continue;
-    Vec3 cS = Vec3::Zero(), cP = Vec3::Zero();
-    for (int v : g) {
-      cS += S[v];
-      cP += heldTarget_[v];
-    }
-    cS /= static_cast<double>(g.size());
-    cP /= static_cast<double>(g.size());
-    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();  // sum of (S - cS)(P - cP)^T
-    double largestMove = 0.0, spread = 0.0;
-    for (int v : g) {
-      A += (S[v] - cS) * (heldTarget_[v] - cP).transpose();
-      largestMove = std::max(largestMove, (heldTarget_[v] - S[v]).norm());
-      spread = std::max(spread, (S[v] - cS).norm());
-    }
-    if (!(largestMove > 0.0) || !(spread > 0.0)) continue;
-    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-    if (D_ == 2) {
-      // About the plane's normal: the angle that best turns the in-plane
-      // offsets onto their images.
-      const Eigen::Matrix2d A2 = fx_.planeBasis.transpose() * A * fx_.planeBasis;
-      const double angle = std::atan2(A2(0, 1) - A2(1, 0), A2(0, 0) + A2(1, 1));
-      const Eigen::Vector3d n = fx_.planeBasis.col(0).cross(fx_.planeBasis.col(1)).normalized();
-      R = Eigen::AngleAxisd(angle, n).toRotationMatrix();
-    } else {
-      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      const Eigen::Vector3d sv = svd.singularValues();
-      if (!(sv(1) > 1e-9 * sv(0))) {
-        // A straight group: the smallest rotation taking its line onto the
-        // line of its image (U's and V's first columns, with sv(0) >= 0).
-        const Eigen::Vector3d a = svd.matrixU().col(0), b = svd.matrixV().col(0);
-        R = Eigen::Quaterniond::FromTwoVectors(a, b).toRotationMatrix();
-      } else {
-        Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-        D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
-        R = svd.matrixV() * D * svd.matrixU().transpose();
-      }
-    }
-    double largestResidual = 0.0;
-    for (int v : g) largestResidual = std::max(largestResidual, (heldTarget_[v] - (R * (S[v] - cS) + cP)).norm());
-    if (!(largestResidual <= kRigidHandleResidual * largestMove)) continue;
-    const Eigen::AngleAxisd aa(R);
-    if (!std::isfinite(aa.angle()) || !aa.axis().allFinite()) continue;
-    const int h = static_cast<int>(handles_.size());
-    handles_.push_back({aa.axis().normalized(), aa.angle(), cS, cP - cS});
-    for (int v : g) {
-      handleOf_[v] = h;
-      heldResidual_[v] = heldTarget_[v] - (R * (S[v] - cS) + cP);
-    }
-  }
+  for (std::vector<int>& g : groups)
+    if (g.size() >= 2) handles_.push_back(std::move(g));
 }
 
-// A held vertex sits at its rest position under the current design, or, when
-// fixed at an explicit position, moves there from rest with the load factor
-// L: x = (1 - L) r + L p for rest position r and prescribed position p, or,
-// on a handle (buildHandles), x = (1 - L) r + L s + m(L) - s with s the
-// scene's rest position and m(L) its image under the handle's motion at L
-// (m(0) = s, m(1) = p): the same at L = 0 and 1, and the same derivative
-// (1 - L) with respect to the rest position (heldDesignCoefficient).
-// A planar scene keeps held vertices in its plane (their rest positions are
-// projected onto it), so that its in-plane unknowns describe it exactly.
-Vec3 PoseSystem::heldPosition(int v, const Design& d, double loadFactor) const {
-  Vec3 r = d.restPositions[v];
-  if (D_ == 2) r = fx_.planeOrigin + fx_.planeBasis * (fx_.planeBasis.transpose() * (r - fx_.planeOrigin));
-  if (!heldExplicit_[v]) return r;
-  const int h = handleOf_[v];
-  if (h < 0) return r + loadFactor * (heldTarget_[v] - r);
-  const HandleMotion& m = handles_[h];
-  const Vec3& s = scene_.vertices[v];
-  const Vec3 moved = Eigen::AngleAxisd(loadFactor * m.angle, m.axis) * (s - m.centre) + m.centre +
-                     loadFactor * (m.shift + heldResidual_[v]);
-  return (1.0 - loadFactor) * r + loadFactor * s + moved - s;
+namespace {
+
+// The rotation (angle about a unit axis) that best turns the offsets a_i
+// onto b_i in the least-squares sense, from A = sum a_i b_i^T (Kabsch: the
+// SVD of A); about `normal` only when it is given (a planar scene); the
+// smallest one taking the line of the a_i onto that of the b_i when the
+// a_i lie on one line.
+Eigen::AngleAxisd bestRotation(const Eigen::Matrix3d& A, const Eigen::Vector3d* normal,
+                               const Eigen::Matrix<double, 3, 2>& basis) {
+  if (normal) {
+    const Eigen::Matrix2d A2 = basis.transpose() * A * basis;
+    return Eigen::AngleAxisd(std::atan2(A2(0, 1) - A2(1, 0), A2(0, 0) + A2(1, 1)), *normal);
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Vector3d sv = svd.singularValues();
+  if (!(sv(1) > 1e-9 * sv(0)))
+    return Eigen::AngleAxisd(Eigen::Quaterniond::FromTwoVectors(svd.matrixU().col(0), svd.matrixV().col(0)));
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return Eigen::AngleAxisd(Eigen::Matrix3d(svd.matrixV() * D * svd.matrixU().transpose()));
+}
+
+}  // namespace
+
+// A held vertex sits at its rest position r under the current design, or,
+// when fixed at an explicit position p, moves there from rest with the load
+// factor L: on a straight line, x = r + L (p - r), unless it belongs to a
+// handle (docs/model.md, "Variables"). A handle's least-squares rigid motion
+// from its rest positions r_i to its prescribed p_i (rotation R by angle a
+// about a fixed axis, centroids c_r -> c_p) leaves residuals e_i = p_i -
+// (R (r_i - c_r) + c_p); with q the largest |e_i| over the largest |p_i -
+// r_i|, the handle turns by the angle s(q) a L, with s = 1 up to q = 1% (a
+// rigid handle, as held in a hand, keeps its shape on the way: on straight
+// lines it would shorten by cos(a/2) at half the load, 29% for a quarter
+// turn, and at a half turn its vertices would meet), falling smoothly to 0
+// at q = 10% (straight lines again; no part of a group that is not one
+// rigid body turns away and back), its centroid moves on a straight line
+// and what the turn by s(q) a leaves of p_i is added in proportion to L.
+// Both ways x = r at L = 0 and x = p at L = 1, and the motion depends on
+// the design's rest positions and the prescribed ones only, so that a
+// scene made of the archived design (its rest positions as the scene's)
+// follows the same path. Design derivatives are taken at the full load,
+// where x = p (heldDesignCoefficient 0), and at rest (1). A planar scene
+// keeps held vertices in its plane (their rest positions are projected
+// onto it, turns are about its normal).
+void PoseSystem::heldPositions(const Design& d, double loadFactor, std::vector<Vec3>& x) const {
+  auto rest = [&](int v) {
+    const Vec3& r = d.restPositions[v];
+    return D_ == 2 ? Vec3(fx_.planeOrigin + fx_.planeBasis * (fx_.planeBasis.transpose() * (r - fx_.planeOrigin))) : r;
+  };
+  for (std::size_t v = 0; v < held_.size(); ++v) {
+    if (!held_[v]) continue;
+    const Vec3 r = rest(static_cast<int>(v));
+    x[v] = heldExplicit_[v] ? Vec3(r + loadFactor * (heldTarget_[v] - r)) : r;
+  }
+  if (loadFactor == 0.0 || loadFactor == 1.0) return;
+  const Eigen::Vector3d normal =
+      D_ == 2 ? Eigen::Vector3d(fx_.planeBasis.col(0).cross(fx_.planeBasis.col(1)).normalized())
+              : Eigen::Vector3d::Zero();
+  for (const std::vector<int>& g : handles_) {
+    Vec3 cr = Vec3::Zero(), cp = Vec3::Zero();
+    for (int v : g) {
+      cr += rest(v);
+      cp += heldTarget_[v];
+    }
+    cr /= static_cast<double>(g.size());
+    cp /= static_cast<double>(g.size());
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+    double largestMove = 0.0;
+    for (int v : g) {
+      A += (rest(v) - cr) * (heldTarget_[v] - cp).transpose();
+      largestMove = std::max(largestMove, (heldTarget_[v] - rest(v)).norm());
+    }
+    if (!(largestMove > 0.0)) continue;
+    const Eigen::AngleAxisd turn = bestRotation(A, D_ == 2 ? &normal : nullptr, fx_.planeBasis);
+    if (!std::isfinite(turn.angle()) || !turn.axis().allFinite() || turn.angle() == 0.0) continue;
+    double largestResidual = 0.0;
+    for (int v : g)
+      largestResidual = std::max(largestResidual, (heldTarget_[v] - (turn * (rest(v) - cr) + cp)).norm());
+    // s(q): 1 below 1%, 0 above 10%, a smoothstep between.
+    const double t = std::clamp((largestResidual / largestMove - 0.01) / 0.09, 0.0, 1.0);
+    const double share = 1.0 - t * t * (3.0 - 2.0 * t);
+    if (share == 0.0) continue;
+    const Eigen::AngleAxisd full(share * turn.angle(), turn.axis());
+    const Eigen::AngleAxisd part(loadFactor * share * turn.angle(), turn.axis());
+    for (int v : g) {
+      const Vec3 left = heldTarget_[v] - (full * (rest(v) - cr) + cp);
+      x[v] = part * (rest(v) - cr) + cr + loadFactor * (cp - cr + left);
+    }
+  }
 }
 
 double PoseSystem::heldDesignCoefficient(int v, double loadFactor) const {
@@ -249,10 +257,11 @@ std::vector<Vec3> PoseSystem::positions(const PoseState& s, const Design& d) con
   std::vector<Vec3> x(vertexDof_.size());
   for (std::size_t v = 0; v < x.size(); ++v) {
     const int k = vertexDof_[v];
-    if (k < 0) x[v] = heldPosition(static_cast<int>(v), d, s.loadFactor);
-    else if (D_ == 3) x[v] = u.segment<3>(k);
+    if (k < 0) continue;  // held: below
+    if (D_ == 3) x[v] = u.segment<3>(k);
     else x[v] = fx_.planeOrigin + fx_.planeBasis * u.segment<2>(k);
   }
+  heldPositions(d, s.loadFactor, x);
   return x;
 }
 

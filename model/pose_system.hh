@@ -183,6 +183,9 @@ class PoseSystem {
   // Held vertices: whether v is held, and d(position of v)/d(rest position of
   // v): 1 when held at its rest position under the design (clamped, or fixed
   // without a position), 1 - load factor when fixed at an explicit position.
+  // For a vertex on a turning handle (positions(), model/pose_system.cc) the
+  // latter holds at rest and at the full load, where the design derivatives
+  // are taken (the optimizers' equilibria), not in between.
   bool isHeld(int v) const { return held_[v]; }
   double heldDesignCoefficient(int v, double loadFactor) const;
   // Unknowns from full positions and twists (inverse of the above).
@@ -233,7 +236,6 @@ class PoseSystem {
     int size = 0;
   };
 
-  Vec3 heldPosition(int v, const Design& d, double loadFactor) const;
   void buildPattern();
   void buildJointPattern() const;
   std::vector<double> heldCoefficients(double loadFactor) const;
@@ -274,22 +276,15 @@ class PoseSystem {
   std::vector<bool> held_;
   std::vector<bool> heldExplicit_;  // held at an explicit position (not at rest)
   std::vector<Vec3> heldTarget_;  // explicit prescribed position at load factor 1
-  // A handle: vertices held at explicit positions and joined by edges, whose
-  // prescribed motion is (nearly) rigid, moves along the screw of that
-  // motion as the load factor grows (heldPosition): the rotation's angle
-  // grows with it about a fixed axis through the centroid, the centroid
-  // moves along a straight line, and what is not rigid (`heldResidual_`)
-  // is added in proportion.
-  struct HandleMotion {
-    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
-    double angle = 0.0;                         // rad, in [0, pi]
-    Vec3 centre = Vec3::Zero();                 // centroid of the scene's rest positions
-    Vec3 shift = Vec3::Zero();                  // centroid at load factor 1 minus centre
-  };
-  std::vector<HandleMotion> handles_;
-  std::vector<int> handleOf_;       // per vertex: index into handles_, -1: straight from rest to its position
-  std::vector<Vec3> heldResidual_;  // prescribed position minus the rigid motion's image of the rest position
+  // Handles: groups of vertices held at explicit positions and joined by
+  // edges (buildHandles); each moves along the screw of its least-squares
+  // rigid motion from the design's rest positions to the prescribed ones
+  // (heldPositions).
+  std::vector<std::vector<int>> handles_;
   void buildHandles();
+  // Positions of the held vertices at a load factor (x[v] for held v; other
+  // entries untouched).
+  void heldPositions(const Design& d, double loadFactor, std::vector<Vec3>& x) const;
 
   // Every block's elements (model/terms/term_list.hh), built once.
   std::shared_ptr<const detail::TermStorage> terms_;

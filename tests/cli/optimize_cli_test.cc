@@ -309,6 +309,23 @@ TEST_F(OptimizeCli, TheSummarySaysWhetherTheRmsWentDownOrUp) {
 // that second run this 26-vertex spider's archive lay 0.006 mm from the
 // designed equilibria, beyond the gap tolerance (not_converged, exit 1);
 // with it, 2e-5 mm: converged.
+// tests/cli/strip_twist180.json (a sweep case): a strip clamped at one end
+// whose other end, a handle of held vertices, is twisted by 90 and by 180
+// degrees about the strip's axis, rest shape free. A handle turns on the
+// loading path along its rigid motion from the design's rest positions to
+// the prescribed ones; built from the scene's rest positions instead, the
+// path of the scene made of the archived design (its rest positions as the
+// scene's) was another, and `simulate` of it landed 30 mm from the archive.
+TEST_F(OptimizeCli, ADesignWithATurnedHandleIsReproducedBySimulate) {
+  clitest::writeText(path("strip.json"), clitest::readText(kSourceDir + "/tests/cli/strip_twist180.json"));
+  std::string err;
+  const int status = run("optimize strip.json -o out.h5 -q", &err);
+  ASSERT_TRUE(status == 0 || status == 1) << err;
+  const Archive a = readArchive(path("out.h5"));
+  expectSimulateReproduces("strip.json", a, 1e-9);
+  EXPECT_LT(rms(a.poses, false), rms(a.poses, true));
+}
+
 // A scene whose initial design has no equilibrium (two vertices of a rod
 // prescribed onto one point: a zero-length edge at the full load) is a
 // failed run, exit 1. The summary line said "initial design 0.0000 mm",
