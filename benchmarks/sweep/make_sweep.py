@@ -874,6 +874,49 @@ def initial_rms(scene, tmp, tag):
     return math.sqrt(t / n)
 
 
+def write_cases(cases, out, only, make, unsolved_initial_ok=False):
+    """Writes OUT/NAME.json (and NAME.hidden.json) for every (name, fn,
+    reachable) of `cases` (or those named in `only`, comma-separated) and
+    the index OUT/cases.json that run_sweep.py reads; make(fn, tmp) returns
+    (scene, hidden scene or None, info dict). With unsolved_initial_ok, a
+    scene whose initial design cannot be simulated is kept (initial RMS
+    nan). Returns 1 when a case could not be made, else 0."""
+    os.makedirs(out, exist_ok=True)
+    idx_path = os.path.join(out, "cases.json")
+    index = json.load(open(idx_path)) if os.path.exists(idx_path) else {}
+    only = [x for x in only.split(",") if x]
+    rc = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, fn, reach in cases:
+            if only and name not in only:
+                continue
+            try:
+                scene, hid, info = make(fn, tmp)
+                try:
+                    r0 = initial_rms(scene, tmp, name)
+                except Failure as e:
+                    if not unsolved_initial_ok:
+                        raise
+                    print("%s: initial simulate failed: %s" % (name, str(e)[-300:]), file=sys.stderr)
+                    r0 = float("nan")
+            except Failure as e:
+                print("%s: FAILED: %s" % (name, str(e)[-1500:]), file=sys.stderr)
+                rc = 1
+                continue
+            json.dump(scene, open(os.path.join(out, name + ".json"), "w"))
+            if hid is not None:
+                json.dump(hid, open(os.path.join(out, name + ".hidden.json"), "w"))
+            index[name] = dict(vertices=len(scene["vertices"]), rods=len(scene["rods"]),
+                               poses=[p["name"] for p in scene["poses"]], parameters=scene["design"]["parameters"],
+                               reachable=reach, initial_rms_mm=round(1e3 * r0, 4),
+                               description=" ".join(fn.__doc__.split()), **info)
+            print("%s: %d vertices, %d rods, %d poses, %s, reachable=%s, initial RMS %.3f mm" % (
+                name, len(scene["vertices"]), len(scene["rods"]), len(scene["poses"]),
+                "+".join(scene["design"]["parameters"]), reach, 1e3 * r0), flush=True)
+            json.dump(index, open(idx_path, "w"), indent=1)
+    return rc
+
+
 def main():
     global RODMESH
     ap = argparse.ArgumentParser()
@@ -888,33 +931,7 @@ def main():
     dome_obj(os.path.join(surf, "dome.obj"))
     cylinder_obj(os.path.join(surf, "cyl.obj"))
     saddle_obj(os.path.join(surf, "saddle.obj"))
-    idx_path = os.path.join(a.out, "cases.json")
-    index = json.load(open(idx_path)) if os.path.exists(idx_path) else {}
-    only = [x for x in a.only.split(",") if x]
-    rc = 0
-    with tempfile.TemporaryDirectory() as tmp:
-        for name, fn, reach in CASES:
-            if only and name not in only:
-                continue
-            try:
-                scene, hid, info = fn(tmp, surf)
-                r0 = initial_rms(scene, tmp, name)
-            except Failure as e:
-                print("%s: FAILED: %s" % (name, e), file=sys.stderr)
-                rc = 1
-                continue
-            json.dump(scene, open(os.path.join(a.out, name + ".json"), "w"))
-            if hid is not None:
-                json.dump(hid, open(os.path.join(a.out, name + ".hidden.json"), "w"))
-            index[name] = dict(vertices=len(scene["vertices"]), rods=len(scene["rods"]),
-                               poses=[p["name"] for p in scene["poses"]], parameters=scene["design"]["parameters"],
-                               reachable=reach, initial_rms_mm=round(1e3 * r0, 4),
-                               description=" ".join(fn.__doc__.split()), **info)
-            print("%s: %d vertices, %d rods, %d poses, %s, reachable=%s, initial RMS %.3f mm" % (
-                name, len(scene["vertices"]), len(scene["rods"]), len(scene["poses"]),
-                "+".join(scene["design"]["parameters"]), reach, 1e3 * r0), flush=True)
-            json.dump(index, open(idx_path, "w"), indent=1)
-    return rc
+    return write_cases(CASES, a.out, a.only, lambda fn, tmp: fn(tmp, surf))
 
 
 if __name__ == "__main__":

@@ -7,18 +7,15 @@ Writes OUT/CASE.json, OUT/CASE.hidden.json (reachable cases), OUT/cases.json
 (the index run_sweep.py / run2.py reads).
 """
 import argparse
-import json
 import math
 import os
 import sys
-import tempfile
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import make_sweep as ms  # noqa: E402
-from make_sweep import (Failure, grid, held_ids, rot, fixed_list, smooth_r, smooth_d, hidden,  # noqa: E402
-                        finish_geometric, simulate, initial_rms)
+from make_sweep import grid, held_ids, rot, fixed_list, smooth_r, smooth_d, finish_geometric  # noqa: E402
 
 BIN = "rodmesh"
 
@@ -877,38 +874,7 @@ def main():
     ap.add_argument("--only", default="")
     a = ap.parse_args()
     ms.RODMESH = os.path.abspath(a.rodmesh)
-    os.makedirs(a.out, exist_ok=True)
-    idx_path = os.path.join(a.out, "cases.json")
-    index = json.load(open(idx_path)) if os.path.exists(idx_path) else {}
-    only = [x for x in a.only.split(",") if x]
-    rc = 0
-    with tempfile.TemporaryDirectory() as tmp:
-        for name, fn, rch in CASES:
-            if only and name not in only:
-                continue
-            try:
-                scene, hid, info = fn(tmp)
-                try:
-                    r0 = initial_rms(scene, tmp, name)
-                except Failure as e:
-                    print("%s: initial simulate failed: %s" % (name, str(e)[-300:]), file=sys.stderr)
-                    r0 = float("nan")
-            except Failure as e:
-                print("%s: FAILED: %s" % (name, str(e)[-1500:]), file=sys.stderr)
-                rc = 1
-                continue
-            json.dump(scene, open(os.path.join(a.out, name + ".json"), "w"))
-            if hid is not None:
-                json.dump(hid, open(os.path.join(a.out, name + ".hidden.json"), "w"))
-            index[name] = dict(vertices=len(scene["vertices"]), rods=len(scene["rods"]),
-                               poses=[p["name"] for p in scene["poses"]], parameters=scene["design"]["parameters"],
-                               reachable=rch, initial_rms_mm=round(1e3 * r0, 4),
-                               description=" ".join(fn.__doc__.split()), **info)
-            print("%s: %d vertices, %d rods, %d poses, %s, reachable=%s, initial RMS %.3f mm" % (
-                name, len(scene["vertices"]), len(scene["rods"]), len(scene["poses"]),
-                "+".join(scene["design"]["parameters"]), rch, 1e3 * r0), flush=True)
-            json.dump(index, open(idx_path, "w"), indent=1)
-    return rc
+    return ms.write_cases(CASES, a.out, a.only, lambda fn, tmp: fn(tmp), unsolved_initial_ok=True)
 
 
 if __name__ == "__main__":
