@@ -101,7 +101,7 @@ TEST(HandleMotion, ANonRigidMotionGoesOnStraightLines) {
 // only: the scene made of a design (its rest positions as the scene's, as
 // one re-simulates an archive) puts the held vertices where the design
 // does at every load factor. (A path built from the scene's own rest
-// positions took the archived twisted strip of benchmarks/sweep 2 to
+// positions took the archived twisted strip of benchmarks/sweep's set B to
 // another equilibrium, 30 mm away.)
 TEST(HandleMotion, TheSceneOfADesignFollowsTheDesignsPath) {
   const Scene s = rodWithHandle(Eigen::AngleAxisd(2.0, Vec3(0.3, 1.0, 0.2).normalized()), Vec3(0.0, 0.01, 0.02));
