@@ -174,9 +174,9 @@ Eigen::AngleAxisd bestRotation(const Eigen::Matrix3d& A, const Eigen::Vector3d* 
 // A held vertex sits at its rest position r under the current design, or,
 // when fixed at an explicit position p, moves there from rest with the load
 // factor L: on a straight line, x = r + L (p - r), unless it belongs to a
-// handle (docs/model.md, "Unknowns of a pose"). A handle's least-squares rigid motion
-// from its rest positions r_i to its prescribed p_i (rotation R by angle a
-// about a fixed axis, centroids c_r -> c_p) leaves residuals e_i = p_i -
+// handle (docs/model.md, "Unknowns of a pose"). A handle's least-squares
+// rigid motion from its rest positions r_i to its prescribed p_i (rotation
+// R by angle a about a fixed axis, centroids c_r -> c_p) leaves residuals e_i = p_i -
 // (R (r_i - c_r) + c_p); with q the largest |e_i| over the largest |p_i -
 // r_i|, the handle turns by the angle s(q) a L, with s = 1 up to q = 1% (a
 // rigid handle, as held in a hand, keeps its shape on the way: on straight
