@@ -270,6 +270,9 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     runModel = normalsModel.get();
     runSpace = normalsSpace.get();
   }
+  // The process's peak so far: a second start or a normals run that is not
+  // the one kept may have used more than the kept run had at its end.
+  r.peakMemoryBytes = std::max(r.peakMemoryBytes, peakResidentMemory());
   if (!quiet) {
     std::cerr << "optimizer: " << outcomeName(r.outcome) << " (" << r.message << "), " << r.iterations
               << " iterations, " << r.evaluations << " evaluations, " << formatSeconds(r.timeSeconds) << "\n";
@@ -392,6 +395,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     if (p.imperfectionSensitive()) chosen.note += (chosen.note.empty() ? "" : "; ") + imperfectionNote(p);
   }
   if (!chosen.note.empty()) std::cerr << "warning: " << chosen.note << "\n";
+  r.peakMemoryBytes = std::max(r.peakMemoryBytes, peakResidentMemory());  // the re-solves included
   Archive a = optimizeArchive(scene, *archiveModel, *runSpace, r, chosen, o.method);
   a.version = versionString();
   if (o.method == "reduced")
