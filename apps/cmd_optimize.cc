@@ -318,9 +318,9 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
     if (!quiet) {
       // The ratio only where both RMS errors are positive, and said the way
       // it went: a run can end worse than its initial design on the RMS
-      // (the objective weighs poses by their weights).
-      // Without the initial design's equilibria (a run that could not
-      // solve them) there is nothing to compare with.
+      // (the objective weighs poses by their weights); without the initial
+      // design's equilibria (a run that could not solve them) there is
+      // nothing to compare with.
       std::string change;
       if (rms && *rms > 0 && run.initialRms && *run.initialRms > 0 && std::isfinite(*run.initialRms)) {
         const double ratio = *run.initialRms / *rms, factor = ratio >= 1.0 ? ratio : 1.0 / ratio;

@@ -206,35 +206,39 @@ void PoseSystem::heldPositions(const Design& d, double loadFactor, std::vector<V
   const Eigen::Vector3d normal =
       D_ == 2 ? Eigen::Vector3d(fx_.planeBasis.col(0).cross(fx_.planeBasis.col(1)).normalized())
               : Eigen::Vector3d::Zero();
+  std::vector<Vec3> r;  // a handle's rest positions (projected in a planar scene)
   for (const std::vector<int>& g : handles_) {
+    r.resize(g.size());
     Vec3 cr = Vec3::Zero(), cp = Vec3::Zero();
-    for (int v : g) {
-      cr += rest(v);
-      cp += heldTarget_[v];
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      r[i] = rest(g[i]);
+      cr += r[i];
+      cp += heldTarget_[g[i]];
     }
     cr /= static_cast<double>(g.size());
     cp /= static_cast<double>(g.size());
     Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
     double largestMove = 0.0;
-    for (int v : g) {
-      A += (rest(v) - cr) * (heldTarget_[v] - cp).transpose();
-      largestMove = std::max(largestMove, (heldTarget_[v] - rest(v)).norm());
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      A += (r[i] - cr) * (heldTarget_[g[i]] - cp).transpose();
+      largestMove = std::max(largestMove, (heldTarget_[g[i]] - r[i]).norm());
     }
     if (!(largestMove > 0.0)) continue;
     const Eigen::AngleAxisd turn = bestRotation(A, D_ == 2 ? &normal : nullptr, fx_.planeBasis);
     if (!std::isfinite(turn.angle()) || !turn.axis().allFinite() || turn.angle() == 0.0) continue;
+    const Eigen::Matrix3d R = turn.toRotationMatrix();
     double largestResidual = 0.0;
-    for (int v : g)
-      largestResidual = std::max(largestResidual, (heldTarget_[v] - (turn * (rest(v) - cr) + cp)).norm());
+    for (std::size_t i = 0; i < g.size(); ++i)
+      largestResidual = std::max(largestResidual, (heldTarget_[g[i]] - (R * (r[i] - cr) + cp)).norm());
     // s(q): 1 below 1%, 0 above 10%, a smoothstep between.
     const double t = std::clamp((largestResidual / largestMove - 0.01) / 0.09, 0.0, 1.0);
     const double share = 1.0 - t * t * (3.0 - 2.0 * t);
     if (share == 0.0) continue;
-    const Eigen::AngleAxisd full(share * turn.angle(), turn.axis());
-    const Eigen::AngleAxisd part(loadFactor * share * turn.angle(), turn.axis());
-    for (int v : g) {
-      const Vec3 left = heldTarget_[v] - (full * (rest(v) - cr) + cp);
-      x[v] = part * (rest(v) - cr) + cr + loadFactor * (cp - cr + left);
+    const Eigen::Matrix3d full = Eigen::AngleAxisd(share * turn.angle(), turn.axis()).toRotationMatrix();
+    const Eigen::Matrix3d part = Eigen::AngleAxisd(loadFactor * share * turn.angle(), turn.axis()).toRotationMatrix();
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      const Vec3 left = heldTarget_[g[i]] - (full * (r[i] - cr) + cp);
+      x[g[i]] = part * (r[i] - cr) + cr + loadFactor * (cp - cr + left);
     }
   }
 }
