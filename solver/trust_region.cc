@@ -277,9 +277,15 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
                            opt.minRadius, rejected, pgNorm, pgNorm / gradientScale)});
       continue;
     }
+    // A step that reached the radius with the model confirmed is limited by
+    // the radius, not by the problem: its small decrease says nothing about
+    // convergence (a phase started with a small radius doubles it for many
+    // iterations, each a small decrease).
+    const double radiusBefore = radius;
     if (rho < 0.25) radius = opt.shrink * sNorm;
     else if (rho > 0.75 && step.reachedRadius) radius = std::min(opt.grow * radius, opt.maxRadius);
     radius = std::max(radius, opt.minRadius);
+    const bool radiusLimited = radius > radiusBefore;
     x = std::move(xNew);
     f = fNew;
     g = std::move(gNew);
@@ -303,7 +309,7 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
     record(it);
     rejected = 0;
     if (gradientConverged()) return finish(res.status);
-    if (iteration >= opt.stallWindow) {
+    if (iteration >= opt.stallWindow && !radiusLimited) {
       const double fOld = accepted[iteration - opt.stallWindow];
       if (fOld - f <= opt.relativeDecrease * std::abs(fOld))
         return finish({Outcome::Converged, formatMessage("relative decrease below %.3g over %d iterations",

@@ -230,6 +230,35 @@ TEST(TrustRegion, FailedEvaluationsShrinkTheRadius) {
   EXPECT_GE(r.rejectedSteps, 1);
 }
 
+// A phase that starts with a tiny radius (inherited from a phase that ended
+// against a fold) doubles it for many iterations, each decreasing f by
+// little: that is the radius's limit, not convergence. On a quadratic from
+// radius 1e-8 with the relative-decrease test over 10 iterations, the run
+// must reach the minimizer, not stop after the first ten doublings.
+TEST(TrustRegion, ARadiusStillGrowingIsNotAStall) {
+  TrustRegionProblem p;
+  p.value = [](const VectorXd& x, double& f) {
+    f = 1 + 0.5 * (x.array() - 1).square().sum();
+    return true;
+  };
+  p.prepare = [](const VectorXd& x, VectorXd& g) {
+    g = x.array() - 1;
+    return true;
+  };
+  p.hessian = [](const VectorXd& v) -> VectorXd { return v; };
+  TrustRegionOptions o;
+  o.initialRadius = 1e-8;
+  o.minRadius = 1e-12;
+  o.relativeDecrease = 1e-3;
+  o.stallWindow = 10;
+  o.gradientTolerance = 1e-8;
+  const VectorXd lo = VectorXd::Constant(3, -kInf), hi = VectorXd::Constant(3, kInf);
+  const TrustRegionResult r = minimizeTrustRegion(p, VectorXd::Zero(3), lo, hi, o);
+  ASSERT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
+  EXPECT_LT((r.x.array() - 1).abs().maxCoeff(), 1e-6) << r.status.message;
+  EXPECT_GT(r.iterations, 10);
+}
+
 TEST(TrustRegion, LimitsAndInvalidOptions) {
   Rosenbrock rb;
   TrustRegionOptions o;
