@@ -633,10 +633,15 @@ class NewtonPhaseSolver : public PhaseSolver {
     TrustRegionOptions to = opt_.trustRegion;
     NestedPhase np(task, ctx, space_, objective_, ro, s);
     np.setLimits(to, opt_);
-    // The radius the last phase of this kind ended with: the alternation
-    // comes back to the same variables, whose scale of good steps it knows.
+    // The radius the last phase of this kind ended with, when this phase
+    // starts where that one ended: the alternation comes back to the same
+    // variables, whose scale of good steps it knows. A phase from another
+    // design (a retry from a design confirmed earlier, a fallback) starts
+    // afresh: the last radius may be one that shrank against a fold of a
+    // loading path the new start is far from.
     const int kind = (phase.radii ? 1 : 0) + (phase.restShape ? 2 : 0);
-    if (radius_[kind] > 0) to.initialRadius = std::clamp(radius_[kind], 1e3 * to.minRadius, to.maxRadius);
+    if (radius_[kind] > 0 && sameDesign(end_[kind], task.controls))
+      to.initialRadius = std::clamp(radius_[kind], 1e3 * to.minRadius, to.maxRadius);
     double hessianSeconds = 0.0;
     TrustRegionProblem problem;
     Eigen::VectorXd preparedZ;  // where rh was last prepared (the last accepted design)
@@ -680,7 +685,10 @@ class NewtonPhaseSolver : public PhaseSolver {
       np.offer(di);
     };
     const TrustRegionResult tr = minimizeTrustRegion(problem, y0, lo.cwiseQuotient(s), hi.cwiseQuotient(s), to, cb);
-    if (tr.iterations > 0) radius_[kind] = tr.radius;
+    if (tr.iterations > 0) {
+      radius_[kind] = tr.radius;
+      end_[kind] = space_.unpack(phase, tr.x.cwiseProduct(s), task.controls);
+    }
     out.iterations = tr.iterations;
     out.evaluations = tr.evaluations;
     out.failedEvaluations = tr.failedEvaluations;
@@ -697,6 +705,15 @@ class NewtonPhaseSolver : public PhaseSolver {
   const DesignOptimizerOptions& opt_;
   const TargetObjective objective_;
   double radius_[4] = {0, 0, 0, 0};  // last radius per phase kind (radii 1, rest shape 2, joint 3)
+  ControlValues end_[4];              // and the design it ended at
+
+  // Equal up to the round trip through the phase's scaled variables.
+  static bool sameDesign(const ControlValues& a, const ControlValues& b) {
+    auto near = [](const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
+      return x.rows() == y.rows() && x.cols() == y.cols() && (x - y).norm() <= 1e-12 * (x.norm() + y.norm());
+    };
+    return a.radii.size() > 0 && near(a.radii, b.radii) && near(a.displacement, b.displacement);
+  }
 };
 
 }  // namespace
