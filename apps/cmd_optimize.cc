@@ -43,7 +43,10 @@ namespace {
 // signal, the watchdog archives the best design confirmed so far (already
 // re-solved from rest on the monitor's thread, solver/design_monitor.hh; the
 // initial design before any other) and ends the process with exit 1; the
-// archive's message says why.
+// archive's message says why. Unless quiet, it also says what the run is
+// doing when no progress line came for --heartbeat seconds (a phase end's
+// solves from rest, a long factorization), so a long silence is not taken
+// for a hang.
 class Watchdog {
  public:
   using Clock = std::chrono::steady_clock;
@@ -58,7 +61,9 @@ class Watchdog {
   using Writer = std::function<void(const ConfirmedDesign& design, const ConfirmedDesign* initial,
                                     const std::vector<DesignIterate>& history, const std::string& message)>;
 
-  Watchdog(double timeLimit, Writer write) : timeLimit_(timeLimit), write_(std::move(write)), t0_(Clock::now()) {
+  // heartbeat: s without a progress line before it says what the run does (0: never).
+  Watchdog(double timeLimit, double heartbeat, Writer write)
+      : timeLimit_(timeLimit), heartbeat_(heartbeat), write_(std::move(write)), t0_(Clock::now()), lastProgress_(t0_), lastBeat_(t0_) {
     thread_ = std::thread([this] { run(); });
   }
   ~Watchdog() {
@@ -82,6 +87,13 @@ class Watchdog {
   void iterate(const DesignIterate& it) {
     std::lock_guard<std::mutex> lock(mutex_);
     history_.push_back(it);
+    lastProgress_ = Clock::now();
+    activity_.clear();  // the next iteration, until the run says otherwise
+  }
+  // What the run does now (DesignOptimizerOptions::activity).
+  void activity(const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    activity_ = what;
   }
   // The main thread's archive: true if it may write it; false when the
   // watchdog is writing its own (the process is about to end).
@@ -103,6 +115,15 @@ class Watchdog {
       const auto now = Clock::now();
       if (!signalled && interruptRequested()) signalled = now;
       const double elapsed = std::chrono::duration<double>(now - t0_).count();
+      if (heartbeat_ > 0 && !signalled && std::chrono::duration<double>(now - lastBeat_).count() >= heartbeat_ &&
+          std::chrono::duration<double>(now - lastProgress_).count() >= heartbeat_) {
+        const int next = history_.empty() ? 0 : history_.back().iteration + 1;
+        const std::string what = !activity_.empty() ? activity_ : "iteration " + std::to_string(next);
+        std::fprintf(stderr, "... %s: %s since the last progress line (%s into the run)\n", what.c_str(),
+                     formatSeconds(std::chrono::duration<double>(now - lastProgress_).count()).c_str(),
+                     formatSeconds(elapsed).c_str());
+        lastBeat_ = now;
+      }
       if (signalled || (timeLimit_ > 0 && elapsed > timeLimit_ + kNewtonGrace)) limit_ = true;
       const bool late = (timeLimit_ > 0 && elapsed > timeLimit_ + kGrace) ||
                         (signalled && std::chrono::duration<double>(now - *signalled).count() > kGrace);
@@ -140,8 +161,11 @@ class Watchdog {
   }
 
   double timeLimit_;
+  double heartbeat_;
   Writer write_;
   Clock::time_point t0_;
+  Clock::time_point lastProgress_, lastBeat_;  // the last progress line, the last line the watchdog wrote
+  std::string activity_;
   std::mutex mutex_;
   std::condition_variable wake_;
   bool done_ = false;
@@ -196,6 +220,11 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
                 "keep the final design even when a pose is imperfection-sensitive (its loading path reaches another "
                 "equilibrium with the radii 0.1% off; by default the run backs off towards the initial design to "
                 "the nearest design tested that is not)");
+  app->add_option("--heartbeat", opts->heartbeat,
+                  "seconds without a progress line after which a line says what the run is doing (a phase end's "
+                  "solves from rest, a long factorization); 0: never")
+      ->check(realNumberIn(kHeartbeatRange))
+      ->capture_default_str();
   app->add_flag("--scene-start", opts->sceneStart,
                 "start from the scene's rest shape even when the rest shape of a pose's target does better from rest "
                 "(with rest_shape free, by default each such rest shape is solved from rest and the best start is "
@@ -281,8 +310,9 @@ Command registerOptimize(CLI::App& root, const GlobalOptions& global) {
       writeArchive(a, o.output);
       if (!quiet) std::cerr << "wrote " << o.output << " (" << a.status << ")\n";
     };
-    Watchdog watchdog(o.optimizer.timeLimit, watchdogWrite);
+    Watchdog watchdog(o.optimizer.timeLimit, quiet ? 0.0 : o.heartbeat, watchdogWrite);
     o.optimizer.onConfirmed = [&watchdog](const ConfirmedDesign& d) { watchdog.confirmed(d); };
+    o.optimizer.activity = [&watchdog](const std::string& what) { watchdog.activity(what); };
     o.optimizer.newton.cancel = watchdog.limitFlag();
     auto progress = [&](const DesignIterate& it) {
       watchdog.iterate(it);

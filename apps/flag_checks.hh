@@ -125,6 +125,7 @@ inline CLI::Validator realNumberIn(const RealRange& range) {
 // Ranges of the solver flags of simulate and optimize (docs/formats.md,
 // "Command line"). A wall-clock second count beyond 1e9 (31 years) is a typo.
 inline const RealRange kTimeLimitRange{0.0, 1e9, false, false, "s (0: none)"};
+inline const RealRange kHeartbeatRange{0.0, 1e9, false, false, "s (0: never)"};
 inline const RealRange kPositiveSecondsRange{0.0, 1e9, true, false, "s"};
 // --duration: any finite positive time; the frame count (duration x fps,
 // at most 1e6) bounds it.

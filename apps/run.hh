@@ -67,6 +67,7 @@ struct OptimizeOptions {
   std::vector<std::string> ipopt;
   bool noImperfectionBackOff = false;  // --no-imperfection-back-off (sets optimizer.imperfectionBackOff)
   bool sceneStart = false;             // --scene-start (clears optimizer.startFromTargets)
+  double heartbeat = 10.0;             // --heartbeat: s without a progress line before saying what the run does
   DesignOptimizerOptions optimizer;
 };
 

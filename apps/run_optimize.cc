@@ -200,6 +200,8 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
         atModel.effects().planar != model.effects().planar || atModel.pose(0).numDofs() != model.pose(0).numDofs())
       break;
     // How far the design's equilibria move with the derived normals.
+    if (o.optimizer.activity)
+      o.optimizer.activity("re-solving the design from rest with the normals its rest shape derives");
     const SimulationResult withDerived = simulateAll(atModel, Design::fromScene(at), o.optimizer.newton);
     const SimulationResult withUsed = simulateAll(*runModel, r.design, o.optimizer.newton);
     if (!withDerived.allConverged || !withUsed.allConverged) break;
@@ -287,6 +289,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // (solver/design_fallback.hh).
   NewtonOptions resolve = o.optimizer.newton;
   resolve.cancel = nullptr;  // the archived design is re-solved whatever stopped the optimizer
+  if (o.optimizer.activity) o.optimizer.activity("re-solving every pose of the final design from rest for the archive");
   ArchivedDesign chosen = chooseArchivedDesign(*runModel, *runSpace, r, resolve);
   // A scene inferred planar is optimized and re-solved in plane. When an
   // in-plane equilibrium of the archived design is unstable out of plane

@@ -176,6 +176,10 @@ class DesignDriver {
   // Every pose's rest state under `d` (Newton from there follows the
   // loading path).
   std::vector<PoseState> restStates(const Design& d) const;
+  // Tells the front end what the run does next (DesignOptimizerOptions::activity).
+  void doing(const std::string& what) const {
+    if (opt_.activity) opt_.activity(what);
+  }
   // `controls` with its equilibria becomes the best design.
   void adopt(const ControlValues& controls, const Design& d, double f, double rms, std::vector<PoseState> polished,
              std::vector<PoseState> own);
@@ -208,7 +212,10 @@ class DesignDriver {
   // the monitor's best confirmed design (waited for, see waitForMonitor).
   OnPathDesign bestKnownOnPath() {
     OnPathDesign best = bestOnPath_;
-    if (monitor_) waitForMonitor();
+    if (monitor_) {
+      doing("waiting for the monitor's checks of designs from rest");
+      waitForMonitor();
+    }
     // (DesignMonitor::best returns a copy: keep it while it is read.)
     const std::optional<ConfirmedDesign> confirmed = monitor_ ? monitor_->best() : std::nullopt;
     if (confirmed && confirmed->objective < best.objective)
@@ -490,6 +497,7 @@ bool DesignDriver::seedTowardsDesigned(const std::vector<PoseState>& path, std::
   // Control displacements whose interpolation fits it (least squares).
   Eigen::MatrixXd delta;
   if (!space_.fitControls(gapField, delta)) return false;
+  doing("seeding the rest shape towards the optimizer's equilibria (each seed: every pose from rest)");
   for (const double fraction : {0.03, 0.1, 0.3}) {
     ControlValues c = res_.controls;
     c.displacement += fraction * delta;
@@ -619,6 +627,7 @@ void DesignDriver::continueFromPath(std::vector<PoseState> path) {
 }
 
 std::string DesignDriver::adoptBestOnPath() {
+  doing("choosing the design that does best as loaded from rest (the monitor's checks, then the fallback designs)");
   const std::vector<FallbackDesign> candidates = fallbacks_.designs();
   std::string label = "the last phase's design";
   double best = std::numeric_limits<double>::infinity();
@@ -679,6 +688,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   res_.design = d0;
 
   // The initial design's equilibria, from rest.
+  doing("solving every pose of the initial design from rest");
   states_ = restStates(d0);
   double f0 = 0.0, rms0 = 0.0;
   if (!solveAndScore(d0, states_, f0, rms0)) {
@@ -711,6 +721,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
                                           formatNumber("%.3g", structureSize()) + " m)");
   if (std::string why = solver.prepare(states_, f0); !why.empty()) return finish(Outcome::InvalidProblem, why);
   start_ = res_.controls;
+  if (scene_.design.restShape) doing("solving the start's candidates from rest (the rest shapes of the targets)");
   const std::string startNote = startFromTargets();
   if (interrupted()) return finish(Outcome::Interrupted, "interrupted");
   if (timeUp()) return finish(Outcome::TimeLimit, "time limit reached");
@@ -879,7 +890,10 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     std::string note;
     bool offPath = false;
     bool off = false, seeded = false;
-    if (kept >= 0 && !interrupted() && !timeUp()) off = offLoadingPath(task, path, note, seeded);
+    if (kept >= 0 && !interrupted() && !timeUp()) {
+      doing("checking the design kept at the end of " + task.label + ": every pose from rest along its loading path");
+      off = offLoadingPath(task, path, note, seeded);
+    }
     if (off) {
       // The last phase is run again from the loading path's equilibria
       // once, and once from a seeded rest shape that brought the path onto
@@ -998,6 +1012,7 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     }
   }
   if (opt_.imperfectionBackOff && !interrupted() && !timeUp()) {
+    doing("checking the final design for imperfection sensitivity (every pose from rest with its radii 0.1% off)");
     const std::string backOff = backOffFromImperfection();
     if (!backOff.empty()) message += "; " + backOff;
   }

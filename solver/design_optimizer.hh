@@ -131,10 +131,16 @@ struct DesignOptimizerOptions {
   // The Newton method's trust-region Newton-CG (solver/trust_region.hh) on
   // the same scaled variables, with exact reduced Hessian products
   // (solver/reduced_hessian.hh); iteration caps, time limit and stopping
-  // tests per phase as for BFGS. A phase starts with the radius the last
-  // phase of the same kind (radii, rest shape, joint) ended with.
+  // tests per phase as for BFGS. A phase that starts where the last phase
+  // of the same kind (radii, rest shape, joint) ended starts with the radius
+  // that phase ended with.
   TrustRegionOptions trustRegion = newtonTrustRegionDefaults();
   std::function<bool()> stopRequested;  // SIGINT
+  // What the run does between iterations, when that is more than the next
+  // iteration (a phase end's solves from rest, the choice of a retry's start,
+  // the imperfection back-off): called with a short description as each such
+  // step begins, so that a front end can say what a long silence is.
+  std::function<void(const std::string&)> activity;
   // Re-solve the optimizer's designs on a second thread while it runs
   // (solver/design_monitor.hh): the run holds a design that re-solves from
   // rest at every moment, and ends with the better of it and its own.

@@ -260,6 +260,33 @@ TEST_F(OptimizeCli, NewtonProgressShowsCgIterationsAndTrustRadius) {
   EXPECT_NE(err.find("  radius "), std::string::npos) << err;
 }
 
+// After --heartbeat seconds without a progress line, a line says what the
+// run is doing. With a heartbeat shorter than the watchdog's poll (0.1 s)
+// every poll without a progress line writes one: each names an activity
+// (or the next iteration) and the silence so far. --quiet writes none.
+TEST_F(OptimizeCli, AHeartbeatSaysWhatTheRunIsDoing) {
+  std::string err;
+  ASSERT_EQ(run("optimize scene.json -o out.h5 --heartbeat 1e-6", &err), 0) << err;
+  int beats = 0;
+  std::size_t at = 0;
+  while ((at = err.find("\n... ", at)) != std::string::npos) {
+    const std::size_t end = err.find('\n', at + 1);
+    const std::string line = err.substr(at + 1, end - at - 1);
+    ++beats;
+    const std::size_t since = line.find(": ");
+    ASSERT_NE(since, std::string::npos) << line;
+    EXPECT_GT(since, 4u) << "an activity is named: " << line;
+    EXPECT_NE(line.find(" since the last progress line ("), std::string::npos) << line;
+    EXPECT_EQ(line.substr(line.size() - 14), " into the run)") << line;
+    at = end;
+  }
+  EXPECT_GE(beats, 1) << err;
+  ASSERT_EQ(run("optimize scene.json -o quiet.h5 --heartbeat 1e-6 --quiet", &err), 0) << err;
+  EXPECT_EQ(err, "");
+  EXPECT_NE(run("optimize scene.json -o bad.h5 --heartbeat -1", &err), 0);
+  EXPECT_NE(err.find("--heartbeat"), std::string::npos) << err;
+}
+
 // The closing summary compares the archived RMS with the initial design's
 // the way it went. A sheet held at two corners, without loads, whose rest
 // shape is designed for two poses weighted 1e6 and 1e-3: the weighted
