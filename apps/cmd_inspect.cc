@@ -58,9 +58,14 @@ Command registerInspect(CLI::App& root, const GlobalOptions&) {
         std::printf("bounds    radii %.4g..%.4g mm: %lld of %zu control radius values held at a bound (%lld at the "
                     "minimum, %lld at the maximum)",
                     b.min * 1e3, b.max * 1e3, b.atMin + b.atMax, 2 * c.rod.size(), b.atMin, b.atMax);
-        if (b.atMin + b.atMax > 0)
-          std::printf("; objective -%.2g%% per 1%% lower minimum, -%.2g%% per 1%% higher maximum (first order)",
-                      b.minElasticity, -b.maxElasticity);
+        // The bounds that hold radii only, as the optimizer's message says
+        // it (solver/bound_activity.cc); + 0.0 turns a -0 into 0.
+        if (b.atMin > 0 || b.atMax > 0) {
+          std::printf("; to first order the objective falls");
+          if (b.atMin > 0) std::printf(" by %.2g%% per 1%% lower minimum", b.minElasticity + 0.0);
+          if (b.atMax > 0) std::printf("%s by %.2g%% per 1%% higher maximum", b.atMin > 0 ? " and" : "",
+                                       -b.maxElasticity + 0.0);
+        }
         std::printf("\n");
       }
     }

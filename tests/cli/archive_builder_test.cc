@@ -215,6 +215,21 @@ TEST_F(ArchiveBuilderTest, InspectShowsTheOptimizeParts) {
   EXPECT_TRUE(contains(out, "control   4 points (2 shared ends, 2 interior)"));
   EXPECT_TRUE(contains(out, "over all poses"));
 
+  // Radii held at one bound only: only that bound's gain is named, with
+  // its sign as the optimizer's message gives it (no "-0%", no "--").
+  Archive held = optimizeArchive(sim, readSceneFile(path("cantilever.json")));
+  held.controlPoints->radiusBounds = ArchiveControlPoints::RadiusBounds{1e-3, 5e-3, 3, 0, 0.013, -0.0};
+  writeArchive(held, path("held.h5"));
+  ASSERT_EQ(run("inspect held.h5", &out), 0);
+  EXPECT_TRUE(contains(out, "(3 at the minimum, 0 at the maximum); to first order the objective falls by 0.013% "
+                            "per 1% lower minimum\n"));
+  EXPECT_FALSE(contains(out, "higher maximum"));
+  EXPECT_FALSE(contains(out, "-0%"));
+  held.controlPoints->radiusBounds = ArchiveControlPoints::RadiusBounds{1e-3, 5e-3, 2, 4, 0.5, -1.25};
+  writeArchive(held, path("held.h5"));
+  ASSERT_EQ(run("inspect held.h5", &out), 0);
+  EXPECT_TRUE(contains(out, "falls by 0.5% per 1% lower minimum and by 1.2% per 1% higher maximum\n"));
+
   // A simulate archive shows none of it.
   ASSERT_EQ(run("inspect sim.h5", &out), 0);
   for (const char* s : {"method", "equilibrium gap", "history", "control", "over all poses"})
