@@ -251,6 +251,11 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
                     << cp.smallestEigenvalue << " N/m): jumped " << cp.jump * 1e3 << " mm to the equilibrium beyond\n";
       if (!quiet && pr.atCriticalPoint())
         std::cerr << "  note: " << criticalPointNote(pr) << "\n";
+      if (!quiet && pr.report.mechanismScale > 0)
+        std::fprintf(stderr,
+                     "  note: a mechanism (a mode without stiffness at rest) whose swing Newton completed with the "
+                     "loads times %.0e, then brought back to the given loads\n",
+                     pr.report.mechanismScale);
       if (!quiet && solve.outOfPlaneStable == 0)
         std::cerr << "  note: this in-plane equilibrium is unstable out of plane (a saddle of the 3D model)"
                   << (mayLeavePlane ? "; the scene is solved again in 3D\n"

@@ -478,6 +478,56 @@ NewtonReport solveEquilibrium(const PoseSystem& system, const Design& design, Po
           merge(r);
           total.resumes++;
         }
+        // Loads far below the structure's stiffness move it along its
+        // mechanism in Newton steps that shrink with the load (straight
+        // steps along a rigid swing stretch the rods to second order), so
+        // that the swing is not completed within the iterations. Its answer
+        // does not depend on how large the loads are, beyond the elastic
+        // part: with no held vertex moving (the load factor then only
+        // scales gravity, forces and moments), the loads times 100, 1e4 or
+        // 1e6 from rest, the first that converges, then brought back to
+        // the given loads in steps of a tenth (each Newton from the last
+        // equilibrium, a step halved in the logarithm where one fails).
+        for (double scaleUp = 100.0; !heldMove && !r.converged() && r.outcome != Outcome::TimeLimit &&
+                                     r.outcome != Outcome::NumericalFailure && scaleUp <= 1e6;
+             scaleUp *= 100.0) {
+          charts = rest.charts;
+          Eigen::VectorXd uUp = rest.u;
+          NewtonReport up = solveAt(scaleUp, uUp, stepTol, opt);
+          merge(up);
+          if (!up.converged()) continue;
+          Eigen::VectorXd uDown = uUp;
+          PoseSystem::Charts chartsDown = charts;
+          double at = scaleUp, ratio = 10.0;
+          NewtonReport down = up;
+          while (at > 1.0 && ratio > 1.01) {
+            const double next = std::max(1.0, at / ratio);
+            Eigen::VectorXd uNext = uDown;
+            charts = chartsDown;
+            NewtonReport rs = solveAt(next, uNext, next > 1.0 ? stepTol : opt.tolerance, opt);
+            merge(rs);
+            if (rs.outcome == Outcome::TimeLimit || rs.outcome == Outcome::NumericalFailure) {
+              down = rs;
+              break;
+            }
+            if (!rs.converged()) {
+              ratio = std::sqrt(ratio);
+              continue;
+            }
+            down = rs;
+            uDown = std::move(uNext);
+            chartsDown = charts;
+            at = next;
+          }
+          if (at == 1.0 && down.converged()) {
+            uTry = std::move(uDown);
+            charts = chartsDown;
+            r = down;
+            total.mechanismScale = scaleUp;
+          } else if (down.outcome == Outcome::TimeLimit || down.outcome == Outcome::NumericalFailure) {
+            r = down;
+          }
+        }
       }
       if (path && r.converged()) {
         uCur = uTry;

@@ -94,6 +94,9 @@ struct CriticalPoint {
 struct NewtonReport : SolveSummary {
   int loadSteps = 0;         // load steps taken (1 without continuation), resumed runs included
   int resumes = 0;           // full-load runs resumed after their iteration limit (still progressing)
+  // A mechanism's swing completed under its loads times this factor, then
+  // brought back to the given loads (0: not needed; see solveEquilibrium).
+  double mechanismScale = 0.0;
   bool progressing = false;  // stopped at the iteration limit while still descending steadily
   int factorizations = 0;
   int hessianModifications = 0;   // iterations that needed a diagonal shift
@@ -150,7 +153,10 @@ NewtonReport newtonSolve(const PoseSystem& system, const Design& design, PoseSta
 //
 // A structure with a zero-stiffness mode at rest (a mechanism) cannot be
 // loaded gradually (smaller loads need the same large motion): the full load
-// from rest is its answer. NewtonOptions::loadingPath = false restores the
+// from rest is its answer. When Newton does not complete the swing under
+// loads far below the stiffness and no held vertex moves, the loads are
+// scaled up (100, 1e4, 1e6 times), solved from rest, and brought back to
+// the given ones (NewtonReport::mechanismScale). NewtonOptions::loadingPath = false restores the
 // full load at once from the given state, with continuation only when Newton
 // fails.
 //

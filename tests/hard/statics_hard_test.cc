@@ -1338,16 +1338,11 @@ TEST_F(HardStatics, PulledSheetComesToRestAtItsStaticEquilibriumInADynamicRun) {
   EXPECT_LT(dynamics.poses[0].iterations, 3000);
 }
 
-TEST_F(HardStatics, HingedSheetUnderAMicronewtonSaysItIsAMechanism) {
-  int corner = 0;
-  double hingeX = 0.0;
-  const RunResult run = simulate(hingedSheet(1e-6, &corner, &hingeX));
-  EXPECT_EQ(run.status, 1) << run.err;
-  const Archive a = archive();
-  EXPECT_EQ(a.status, "not_converged");
-  EXPECT_TRUE(archiveFinite(a));
-  EXPECT_NE(rootMessage().find("mechanism"), std::string::npos) << rootMessage();
-}
+// Under a micronewton (1e-4 of the force that swings it in 1.7 s) Newton's
+// steps along the swing shrink with the load and did not complete it: the
+// run ended with the mechanism message, exit 1. The loads scaled up, solved
+// from rest, then brought back, give the hanging sheet.
+TEST_F(HardStatics, HingedSheetUnderAMicronewtonHangsToo) { hingedSheetHangs(*this, 1e-6); }
 #endif
 
 }  // namespace
