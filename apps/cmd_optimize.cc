@@ -63,7 +63,12 @@ class Watchdog {
 
   // heartbeat: s without a progress line before it says what the run does (0: never).
   Watchdog(double timeLimit, double heartbeat, Writer write)
-      : timeLimit_(timeLimit), heartbeat_(heartbeat), write_(std::move(write)), t0_(Clock::now()), lastProgress_(t0_), lastBeat_(t0_) {
+      : timeLimit_(timeLimit),
+        heartbeat_(heartbeat),
+        write_(std::move(write)),
+        t0_(Clock::now()),
+        lastProgress_(t0_),
+        lastBeat_(t0_) {
     thread_ = std::thread([this] { run(); });
   }
   ~Watchdog() {
