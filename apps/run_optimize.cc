@@ -202,8 +202,9 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     // How far the design's equilibria move with the derived normals.
     if (o.optimizer.activity)
       o.optimizer.activity("re-solving the design from rest with the normals its rest shape derives");
-    const SimulationResult withDerived = simulateAll(atModel, Design::fromScene(at), o.optimizer.newton);
-    const SimulationResult withUsed = simulateAll(*runModel, r.design, o.optimizer.newton);
+    const int th = o.optimizer.threads;
+    const SimulationResult withDerived = simulateAll(atModel, Design::fromScene(at), o.optimizer.newton, {}, false, th);
+    const SimulationResult withUsed = simulateAll(*runModel, r.design, o.optimizer.newton, {}, false, th);
     if (!withDerived.allConverged || !withUsed.allConverged) break;
     const double gap = largestDistance(withDerived, withUsed);
     const PoseSystem& first = runModel->pose(0);
@@ -290,7 +291,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   NewtonOptions resolve = o.optimizer.newton;
   resolve.cancel = nullptr;  // the archived design is re-solved whatever stopped the optimizer
   if (o.optimizer.activity) o.optimizer.activity("re-solving every pose of the final design from rest for the archive");
-  ArchivedDesign chosen = chooseArchivedDesign(*runModel, *runSpace, r, resolve);
+  ArchivedDesign chosen = chooseArchivedDesign(*runModel, *runSpace, r, resolve, o.optimizer.threads);
   // A scene inferred planar is optimized and re-solved in plane. When an
   // in-plane equilibrium of the archived design is unstable out of plane
   // (lateral buckling), `rodmesh simulate` solves the scene again in 3D with
@@ -308,7 +309,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     spatialModel = std::make_unique<SceneModel>(*spatialScene);
     archiveModel = spatialModel.get();
     const double inPlaneRms = chosen.rms;
-    chosen.simulation = simulateAll(*spatialModel, chosen.design, resolve);
+    chosen.simulation = simulateAll(*spatialModel, chosen.design, resolve, {}, false, o.optimizer.threads);
     chosen.allConverged = chosen.simulation.allConverged;
     chosen.rms = rmsError(chosen.simulation);
     chosen.outOfPlane = true;
@@ -342,7 +343,8 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       if (resimModel->network().vertexNormals() != archiveModel->network().vertexNormals() &&
           resimModel->effects().planar == archiveModel->effects().planar &&
           resimModel->pose(0).numDofs() == archiveModel->pose(0).numDofs()) {
-        SimulationResult sim = simulateAll(*resimModel, Design::fromScene(*resim), resolve);
+        SimulationResult sim =
+            simulateAll(*resimModel, Design::fromScene(*resim), resolve, {}, false, o.optimizer.threads);
         const double gap = largestDistance(sim, chosen.simulation);
         // Differences at the solver's own position tolerance (1e-9 of the
         // structure's size) are round-off of the derivation, not of the design.
@@ -392,7 +394,8 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   // A run stopped by its time limit or by SIGINT/SIGTERM is archived without
   // the test (two loading paths per pose past the limit the user set).
   const bool cutShort = r.outcome == Outcome::TimeLimit || r.outcome == Outcome::Interrupted;
-  if (!reuse && !cutShort) addImperfectionSensitivity(*archiveModel, chosen.design, resolve, chosen.simulation);
+  if (!reuse && !cutShort)
+    addImperfectionSensitivity(*archiveModel, chosen.design, resolve, chosen.simulation, o.optimizer.threads);
   for (const PoseResult& p : chosen.simulation.poses) {
     if (p.atCriticalPoint()) chosen.note += (chosen.note.empty() ? "" : "; ") + criticalPointNote(p);
     if (p.imperfectionSensitive()) chosen.note += (chosen.note.empty() ? "" : "; ") + imperfectionNote(p);

@@ -262,7 +262,7 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
                                     : "; the scene's \"effects\" keep it in plane (add \"twist\" to find the "
                                       "buckled state)\n");
     };
-    simulateAll(model, design, o.newton, progress, /*unloadedStiffness=*/true);
+    simulateAll(model, design, o.newton, progress, /*unloadedStiffness=*/true, defaultOptimizeThreads());
     if (outOfPlaneUnstable) {
       spatialScene = std::make_unique<Scene>(cli::spatialScene(scene, model.effects()));
       spatialModel = std::make_unique<SceneModel>(*spatialScene);
@@ -278,7 +278,8 @@ Archive runSimulate(const Scene& scene, const SimulateOptions& o, bool quiet) {
           "the scene was inferred planar, but an in-plane equilibrium was unstable out of plane; solved in 3D "
           "with twist";
       twist = model3d.effects().has(Effect::Twist);
-      simulateAll(model3d, design, o.newton, progress, /*unloadedStiffness=*/true);
+      simulateAll(model3d, design, o.newton, progress, /*unloadedStiffness=*/true,
+                  defaultOptimizeThreads());
     }
   }
 

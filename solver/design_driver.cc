@@ -251,10 +251,11 @@ std::string DesignDriver::backOffFromImperfection() {
   // designs are the archive's business).
   auto sensitive = [&](const Design& d, SimulationResult& sim, std::string& pose, double& gap) {
     const auto te = Clock::now();
-    sim = simulateAll(model_, d, opt_.newton, {}, /*unloadedStiffness=*/true);  // atCriticalPoint below
+    // (unloaded stiffness: atCriticalPoint below)
+    sim = simulateAll(model_, d, opt_.newton, {}, /*unloadedStiffness=*/true, opt_.threads);
     bool any = false;
     if (sim.allConverged) {
-      addImperfectionSensitivity(model_, d, opt_.newton, sim);
+      addImperfectionSensitivity(model_, d, opt_.newton, sim, opt_.threads);
       for (const PoseResult& p : sim.poses)
         if (p.imperfectionSensitive() && !any) {
           any = true;

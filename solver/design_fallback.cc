@@ -72,14 +72,14 @@ void DesignFallbacks::add(const ControlValues& controls, double objective, doubl
 }
 
 ArchivedDesign chooseArchivedDesign(const SceneModel& model, const DesignSpace& space, const DesignOptimizerResult& result,
-                                    const NewtonOptions& newton) {
+                                    const NewtonOptions& newton, int threads) {
   const Scene& scene = model.scene();
   ArchivedDesign out;
   out.controls = result.controls;
   out.design = result.design;
   out.label = "the final design";
   out.optimizerRms = result.rms;
-  out.simulation = simulateAll(model, out.design, newton);
+  out.simulation = simulateAll(model, out.design, newton, {}, false, threads);
   out.allConverged = out.simulation.allConverged;
   out.rms = rmsError(out.simulation);
   if (out.allConverged && static_cast<int>(result.states.size()) == model.numPoses()) {
@@ -125,7 +125,7 @@ ArchivedDesign chooseArchivedDesign(const SceneModel& model, const DesignSpace& 
       const Design d = space.toDesign(f.controls);
       SimulationResult sim;
       try {
-        sim = simulateAll(model, d, newton);
+        sim = simulateAll(model, d, newton, {}, false, threads);
       } catch (const std::exception&) {
         continue;
       }
@@ -165,7 +165,7 @@ ArchivedDesign chooseArchivedDesign(const SceneModel& model, const DesignSpace& 
     const Design d = space.toDesign(f.controls);
     SimulationResult sim;
     try {
-      sim = simulateAll(model, d, newton);
+      sim = simulateAll(model, d, newton, {}, false, threads);
     } catch (const std::exception&) {
       sim.allConverged = false;  // a design the model rejects is one more that does not re-solve
     }

@@ -108,8 +108,8 @@ struct DesignOptimizerResult;
 // worse, re-solved from rest, than the initial design was on the optimizer's
 // equilibria). When none does, the final design with its unconverged poses.
 // `newton`: the options of `rodmesh simulate`'s Newton solve (the defaults
-// unless the caller changes both).
+// unless the caller changes both); `threads`: poses solved in parallel.
 ArchivedDesign chooseArchivedDesign(const SceneModel& model, const DesignSpace& space, const DesignOptimizerResult& result,
-                                    const NewtonOptions& newton);
+                                    const NewtonOptions& newton, int threads = 1);
 
 }  // namespace rodmesh

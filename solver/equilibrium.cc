@@ -2,6 +2,7 @@
 
 #include "model/stiffness.hh"
 #include "solver/modified_ldlt.hh"
+#include "solver/parallel.hh"
 
 #include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
@@ -85,7 +86,7 @@ Design radiusImperfection(const Design& design, double change, int sign) {
 }
 
 void addImperfectionSensitivity(const SceneModel& model, const Design& design, const NewtonOptions& options,
-                                SimulationResult& sim) {
+                                SimulationResult& sim, int threads) {
   const Design plus = radiusImperfection(design, kImperfectionRadiusChange, 1);
   const Design minus = radiusImperfection(design, kImperfectionRadiusChange, -1);
   // A pose that hardly moves (nothing applied) is judged against 1e-6 of
@@ -93,31 +94,38 @@ void addImperfectionSensitivity(const SceneModel& model, const Design& design, c
   Eigen::AlignedBox3d box;
   for (const Vec3& x : design.restPositions) box.extend(x);
   const double floor = design.restPositions.empty() ? 0.0 : 1e-6 * box.diagonal().norm();
-  for (int p = 0; p < model.numPoses() && p < static_cast<int>(sim.poses.size()); ++p) {
+  // Each (pose, sign) on its own: the two loading paths of one pose are as
+  // independent as those of two poses (a PoseSystem is safe to share).
+  const int poses = std::min(model.numPoses(), static_cast<int>(sim.poses.size()));
+  std::vector<double> gaps(2 * poses, 0.0);
+  forEachPose(2 * poses, threads, [&](int task) {
+    const int p = task / 2;
+    const PoseResult& r = sim.poses[p];
+    if (!r.report.converged()) return;
+    const PoseSystem& sys = model.pose(p);
+    const Design& d = task % 2 == 0 ? plus : minus;
+    PoseState state = sys.restState(d);
+    bool solved = false;
+    try {
+      solved = solveEquilibrium(sys, d, state, options).converged() && state.loadFactor == 1.0;
+    } catch (const std::exception&) {
+      solved = false;
+    }
+    if (!solved) {
+      gaps[task] = std::numeric_limits<double>::infinity();
+      return;
+    }
+    const std::vector<Vec3> x = sys.positions(state, d);
+    for (std::size_t v = 0; v < x.size() && v < r.positions.size(); ++v)
+      gaps[task] = std::max(gaps[task], (x[v] - r.positions[v]).norm());
+  });
+  for (int p = 0; p < poses; ++p) {
     PoseResult& r = sim.poses[p];
     if (!r.report.converged()) continue;
-    const PoseSystem& sys = model.pose(p);
     double largest = 0.0;
     for (std::size_t v = 0; v < r.positions.size() && v < design.restPositions.size(); ++v)
       largest = std::max(largest, (r.positions[v] - design.restPositions[v]).norm());
-    double gap = 0.0;
-    for (const Design* d : {&plus, &minus}) {
-      PoseState state = sys.restState(*d);
-      bool solved = false;
-      try {
-        solved = solveEquilibrium(sys, *d, state, options).converged() && state.loadFactor == 1.0;
-      } catch (const std::exception&) {
-        solved = false;
-      }
-      if (!solved) {
-        gap = std::numeric_limits<double>::infinity();
-        break;
-      }
-      const std::vector<Vec3> x = sys.positions(state, *d);
-      for (std::size_t v = 0; v < x.size() && v < r.positions.size(); ++v)
-        gap = std::max(gap, (x[v] - r.positions[v]).norm());
-    }
-    r.imperfectionGap = gap;
+    r.imperfectionGap = std::max(gaps[2 * p], gaps[2 * p + 1]);
     r.largestDisplacement = std::max(largest, floor);
   }
 }
@@ -136,12 +144,15 @@ void addUnloadedStiffness(const SceneModel& model, const Design& design, Simulat
 }
 
 SimulationResult simulateAll(const SceneModel& model, const Design& design, const NewtonOptions& options,
-                             const PoseProgress& progress, bool unloadedStiffness) {
+                             const PoseProgress& progress, bool unloadedStiffness, int threads) {
   SimulationResult out;
   out.dofsPerPose = model.numPoses() > 0 ? model.pose(0).numDofs() : 0;
-  for (int p = 0; p < model.numPoses(); ++p) {
+  const int poses = model.numPoses();
+  std::vector<PoseResult> results(poses);
+  std::vector<std::exception_ptr> errors(poses);  // rethrown on the calling thread
+  auto solvePose = [&](int p) {
     const PoseSystem& sys = model.pose(p);
-    PoseResult r;
+    PoseResult& r = results[p];
     r.name = model.scene().poses[p].name;
     PoseState state = sys.restState(design);
     const std::string unsupported = unsupportedLoad(model.scene(), model.network(), model.effects(), p, design);
@@ -177,10 +188,29 @@ SimulationResult simulateAll(const SceneModel& model, const Design& design, cons
     }
     if (model.effects().planar && r.report.converged())
       r.outOfPlaneStable = outOfPlaneStable(model.scene(), model.network(), model.effects(), p, design, r.positions);
+  };
+  auto report = [&](int p) {
+    if (errors[p]) std::rethrow_exception(errors[p]);
+    PoseResult& r = results[p];
     out.allConverged = out.allConverged && r.report.converged();
     if (progress) progress(p, r);
     out.poses.push_back(std::move(r));
+  };
+  if (threads <= 1 || poses <= 1) {
+    for (int p = 0; p < poses; ++p) {
+      solvePose(p);
+      report(p);
+    }
+    return out;
   }
+  forEachPose(poses, threads, [&](int p) {
+    try {
+      solvePose(p);
+    } catch (...) {
+      errors[p] = std::current_exception();
+    }
+  });
+  for (int p = 0; p < poses; ++p) report(p);
   return out;
 }
 

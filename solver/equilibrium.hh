@@ -82,8 +82,11 @@ using PoseProgress = std::function<void(int pose, const PoseResult&)>;
 // `unloadedStiffness`: also the unloaded structure's smallest eigenvalue per
 // pose (PoseResult::unloadedSmallestEigenvalue, one more factorization per
 // pose), for results that are reported; the optimizers' many checks skip it.
+// `threads`: poses solved in parallel (solver/parallel.hh; the result does
+// not depend on it); `progress` is called on the calling thread, in pose
+// order, after every pose was solved when threads > 1.
 SimulationResult simulateAll(const SceneModel& model, const Design& design, const NewtonOptions& options,
-                             const PoseProgress& progress = {}, bool unloadedStiffness = false);
+                             const PoseProgress& progress = {}, bool unloadedStiffness = false, int threads = 1);
 
 // Sets PoseResult::unloadedSmallestEigenvalue of every pose of `sim` (solved
 // under `design`) that has a stability judgement and lacks it.
@@ -95,8 +98,9 @@ void addUnloadedStiffness(const SceneModel& model, const Design& design, Simulat
 // ±1). Two loading paths per pose; for reported designs (`optimize`'s
 // archive), which optimizers tend to push against the edge of the region
 // whose loading paths reach the designed branch.
+// `threads`: poses in parallel, as simulateAll.
 void addImperfectionSensitivity(const SceneModel& model, const Design& design, const NewtonOptions& options,
-                                SimulationResult& sim);
+                                SimulationResult& sim, int threads = 1);
 
 // Empty if the pose's loads can be in equilibrium; otherwise why not (no
 // held vertex and a non-zero net force).

@@ -38,6 +38,7 @@
 
 #include <cstdio>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "meshing/grid.hh"
@@ -208,6 +209,57 @@ TEST_F(PaperFig4, SideShearHexMoreThanTriButQuadShearsMost) {
   // the hexagonal sheet much less so (its shear/stretch ratio comes from the
   // cantilever geometry, not from the cells).
   EXPECT_GT(quad_.shear / quad_.stretch, 10.0 * (hex_.shear / hex_.stretch));
+}
+
+}  // namespace
+}  // namespace rodmesh
+
+namespace rodmesh {
+namespace {
+
+// simulateAll with poses solved on two threads gives every pose's result
+// exactly as one thread does, and reports the poses in order on the calling
+// thread.
+TEST(SimulateAll, PosesOnTwoThreadsAreSolvedAsOnOne) {
+  meshing::GridOptions o;
+  o.kind = meshing::GridKind::Hex;
+  o.cellsX = 3;
+  o.cellsY = 2;
+  o.fixSides = {meshing::GridSide::Left};
+  o.pulls = {{meshing::GridSide::Right, Vec3(0.2, 0.0, 0.0)},
+             {meshing::GridSide::Right, Vec3(0.0, 0.05, 0.0)},
+             {meshing::GridSide::Top, Vec3(0.0, 0.1, 0.0)}};
+  const Scene s = meshing::makeGridSheet(o).scene;
+  ASSERT_EQ(s.poses.size(), 3u);
+  const SceneModel model(s);
+  const Design d = Design::fromScene(s);
+  std::vector<int> order;
+  const std::thread::id caller = std::this_thread::get_id();
+  bool onCaller = true;
+  auto progress = [&](int p, const PoseResult&) {
+    order.push_back(p);
+    onCaller = onCaller && std::this_thread::get_id() == caller;
+  };
+  const SimulationResult one = simulateAll(model, d, NewtonOptions{}, {}, true, 1);
+  const SimulationResult two = simulateAll(model, d, NewtonOptions{}, progress, true, 2);
+  EXPECT_EQ(order, (std::vector<int>{0, 1, 2}));
+  EXPECT_TRUE(onCaller);
+  ASSERT_TRUE(one.allConverged);
+  EXPECT_EQ(two.allConverged, one.allConverged);
+  ASSERT_EQ(two.poses.size(), one.poses.size());
+  for (std::size_t p = 0; p < one.poses.size(); ++p) {
+    EXPECT_EQ(two.poses[p].name, one.poses[p].name);
+    EXPECT_EQ(two.poses[p].positions, one.poses[p].positions) << p;
+    EXPECT_EQ(two.poses[p].report.iterations, one.poses[p].report.iterations) << p;
+    EXPECT_EQ(two.poses[p].smallestEigenvalue, one.poses[p].smallestEigenvalue) << p;
+  }
+  SimulationResult a = one, b = one;
+  addImperfectionSensitivity(model, d, NewtonOptions{}, a, 1);
+  addImperfectionSensitivity(model, d, NewtonOptions{}, b, 2);
+  for (std::size_t p = 0; p < a.poses.size(); ++p) {
+    ASSERT_TRUE(a.poses[p].imperfectionGap.has_value());
+    EXPECT_EQ(b.poses[p].imperfectionGap, a.poses[p].imperfectionGap) << p;
+  }
 }
 
 }  // namespace
