@@ -232,8 +232,11 @@ Scene parseScene(const std::string& text, const std::string& path) {
     if (!(s.material.youngModulus > 0)) e.fail("Young's modulus must be positive, got " + fmt(s.material.youngModulus));
     Node nu = m["poisson_ratio"];
     s.material.poissonRatio = nu.number();
-    if (!(s.material.poissonRatio > -1.0 && s.material.poissonRatio < 0.5))
-      nu.fail("Poisson ratio must lie in (-1, 0.5), got " + fmt(s.material.poissonRatio));
+    // The rods use the shear modulus E / (2 (1 + nu)) only: finite and
+    // positive on (-1, 0.5], the incompressible 0.5 (rubber, TPU modelled as
+    // such, other rod codes' G = E/3) included.
+    if (!(s.material.poissonRatio > -1.0 && s.material.poissonRatio <= 0.5))
+      nu.fail("Poisson ratio must lie in (-1, 0.5], got " + fmt(s.material.poissonRatio));
     Node rho = m["density"];
     s.material.density = rho.number();
     if (!(s.material.density > 0)) rho.fail("density must be positive, got " + fmt(s.material.density));

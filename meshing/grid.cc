@@ -180,7 +180,7 @@ void validateGridOptions(const GridOptions& o) {
     bad("--young-modulus must lie in [" + fmt(limits::kMinYoungModulus) + ", " + fmt(limits::kMaxYoungModulus) +
         "] Pa (got " +
         fmt(o.material.youngModulus) + ")");
-  if (!(o.material.poissonRatio > -1 && o.material.poissonRatio < 0.5)) bad("--poisson-ratio must lie in (-1, 0.5)");
+  if (!(o.material.poissonRatio > -1 && o.material.poissonRatio <= 0.5)) bad("--poisson-ratio must lie in (-1, 0.5]");
   if (!(o.material.density >= limits::kMinDensity && o.material.density <= limits::kMaxDensity))
     bad("--material-density must lie in [" + fmt(limits::kMinDensity) + ", " + fmt(limits::kMaxDensity) +
         "] kg/m^3 (got " +

@@ -162,8 +162,8 @@ void validateOptions(const MeshOptions& o) {
   if (o.method == MeshMethod::Dual) requireRange("--faces", o.dualFaces, 4, kMaxDualFaces);
   if (o.edgeLength != 0) requirePositive("--edge-length", o.edgeLength, kMaxLength, "m");
   requireRange("--young-modulus", o.material.youngModulus, limits::kMinYoungModulus, kMaxYoungModulus, "Pa");
-  if (!(o.material.poissonRatio > -1 && o.material.poissonRatio < 0.5))
-    bad("--poisson-ratio must lie in (-1, 0.5) (got " + fmt(o.material.poissonRatio) + ")");
+  if (!(o.material.poissonRatio > -1 && o.material.poissonRatio <= 0.5))
+    bad("--poisson-ratio must lie in (-1, 0.5] (got " + fmt(o.material.poissonRatio) + ")");
   requireRange("--material-density", o.material.density, limits::kMinDensity, kMaxDensity, "kg/m^3");
   for (int k = 0; k < 2; ++k) requireRange("--radius", o.radius[k], limits::kMinRadius, kMaxLength, "m");
   requireRange("--radius-bounds", o.radiusMin, limits::kMinRadius, kMaxLength, "m");

@@ -637,10 +637,20 @@ TEST(SceneReaderErrors, NegativeYoungModulus) {
 
 TEST(SceneReaderErrors, PoissonRatioTooLarge) {
   json j = baseScene();
-  j["material"]["poisson_ratio"] = 0.5;
+  j["material"]["poisson_ratio"] = 0.5000001;
   expectMessage(errorOf(j), "material.poisson_ratio", {"0.5"});
   j["material"]["poisson_ratio"] = 0.75;
   expectMessage(errorOf(j), "material.poisson_ratio", {"0.75"});
+}
+
+// An incompressible material (nu = 0.5, G = E/3) is a rod material like any
+// other: rubber, TPU modelled as such, other rod codes' default.
+TEST(SceneReader, AnIncompressibleMaterialIsRead) {
+  json j = baseScene();
+  j["material"]["poisson_ratio"] = 0.5;
+  const Scene s = parseScene(j.dump(), kFile);
+  EXPECT_EQ(s.material.poissonRatio, 0.5);
+  EXPECT_DOUBLE_EQ(s.material.shearModulus(), s.material.youngModulus / 3.0);
 }
 
 TEST(SceneReaderErrors, PoissonRatioTooSmall) {
