@@ -1,6 +1,7 @@
 #include "solver/design_optimizer.hh"
 
 #include "solver/design_driver.hh"
+#include "solver/design_fallback.hh"
 #include "solver/parallel.hh"
 #include "solver/reduced_hessian.hh"
 
@@ -640,7 +641,7 @@ class NewtonPhaseSolver : public PhaseSolver {
     // afresh: the last radius may be one that shrank against a fold of a
     // loading path the new start is far from.
     const int kind = (phase.radii ? 1 : 0) + (phase.restShape ? 2 : 0);
-    if (radius_[kind] > 0 && sameDesign(end_[kind], task.controls))
+    if (radius_[kind] > 0 && sameControls(end_[kind], task.controls))
       to.initialRadius = std::clamp(radius_[kind], 1e3 * to.minRadius, to.maxRadius);
     double hessianSeconds = 0.0;
     TrustRegionProblem problem;
@@ -705,15 +706,9 @@ class NewtonPhaseSolver : public PhaseSolver {
   const DesignOptimizerOptions& opt_;
   const TargetObjective objective_;
   double radius_[4] = {0, 0, 0, 0};  // last radius per phase kind (radii 1, rest shape 2, joint 3)
-  ControlValues end_[4];              // and the design it ended at
-
-  // Equal up to the round trip through the phase's scaled variables.
-  static bool sameDesign(const ControlValues& a, const ControlValues& b) {
-    auto near = [](const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
-      return x.rows() == y.rows() && x.cols() == y.cols() && (x - y).norm() <= 1e-12 * (x.norm() + y.norm());
-    };
-    return a.radii.size() > 0 && near(a.radii, b.radii) && near(a.displacement, b.displacement);
-  }
+  // and the design it ended at: unpacked as the phase's candidate is, so
+  // that a phase starting from that candidate matches it exactly.
+  ControlValues end_[4];
 };
 
 }  // namespace
