@@ -219,6 +219,7 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
   if (gradientConverged()) return finish(res.status);
 
   std::vector<double> accepted{f};
+  std::vector<double> radii{radius};  // the trust radius at the start and after each iteration
   int rejected = 0;
   for (int iteration = 1; iteration <= opt.maxIterations;) {
     const double pgNow = pg.norm();
@@ -277,15 +278,18 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
                            opt.minRadius, rejected, pgNorm, pgNorm / gradientScale)});
       continue;
     }
-    // A step that reached the radius with the model confirmed is limited by
-    // the radius, not by the problem: its small decrease says nothing about
-    // convergence (a phase started with a small radius doubles it for many
-    // iterations, each a small decrease).
-    const double radiusBefore = radius;
+    // Steps limited by a radius that is still growing say nothing about
+    // convergence: a phase started with a small radius doubles it for many
+    // iterations, each a small decrease. The relative-decrease test is
+    // therefore skipped while the radius is larger than at the start of its
+    // window. A radius that grows after each accepted step but shrinks over
+    // the window (steps accepted and rejected in turn, creeping towards a
+    // point where the objective jumps: a fold of a loading path) does not
+    // count as growing: that creep is what the test is there to stop.
     if (rho < 0.25) radius = opt.shrink * sNorm;
     else if (rho > 0.75 && step.reachedRadius) radius = std::min(opt.grow * radius, opt.maxRadius);
     radius = std::max(radius, opt.minRadius);
-    const bool radiusLimited = radius > radiusBefore;
+    radii.push_back(radius);
     x = std::move(xNew);
     f = fNew;
     g = std::move(gNew);
@@ -309,7 +313,7 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
     record(it);
     rejected = 0;
     if (gradientConverged()) return finish(res.status);
-    if (iteration >= opt.stallWindow && !radiusLimited) {
+    if (iteration >= opt.stallWindow && !(radius > radii[iteration - 1])) {
       const double fOld = accepted[iteration - opt.stallWindow];
       if (fOld - f <= opt.relativeDecrease * std::abs(fOld))
         return finish({Outcome::Converged, formatMessage("relative decrease below %.3g over %d iterations",

@@ -259,6 +259,40 @@ TEST(TrustRegion, ARadiusStillGrowingIsNotAStall) {
   EXPECT_GT(r.iterations, 10);
 }
 
+// The minimum of a smooth model lies beyond a cliff (the objective jumps at
+// x0 = 0.5, as an optimizer's objective jumps where a loading path passes a
+// fold). Steps are accepted and rejected in turn, each accepted one halfway
+// to the cliff and growing the radius, which shrinks over every pair: the
+// iterates creep towards the cliff with ever smaller decreases. The
+// relative-decrease test ends that creep; it must not count the radius's
+// growth after each accepted step as a radius still growing (the run would
+// otherwise go on until the radius falls below minRadius).
+TEST(TrustRegion, CreepingTowardsACliffIsAStall) {
+  TrustRegionProblem p;
+  p.value = [](const VectorXd& x, double& f) {
+    f = 0.5 * (x.array() - 1).square().sum() + (x[0] >= 0.5 ? 10.0 : 0.0);
+    return true;
+  };
+  p.prepare = [](const VectorXd& x, VectorXd& g) {
+    g = x.array() - 1;
+    return true;
+  };
+  p.hessian = [](const VectorXd& v) -> VectorXd { return v; };
+  TrustRegionOptions o;
+  o.initialRadius = 0.1;
+  o.minRadius = 1e-12;
+  o.relativeDecrease = 1e-3;
+  o.stallWindow = 10;
+  o.gradientTolerance = 1e-8;
+  const VectorXd lo = VectorXd::Constant(1, -kInf), hi = VectorXd::Constant(1, kInf);
+  const TrustRegionResult r = minimizeTrustRegion(p, VectorXd::Zero(1), lo, hi, o);
+  EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
+  EXPECT_NE(r.status.message.find("relative decrease"), std::string::npos) << r.status.message;
+  EXPECT_LT(r.x[0], 0.5);
+  EXPECT_GT(r.x[0], 0.49);
+  EXPECT_GT(r.radius, o.minRadius * 1e3);
+}
+
 TEST(TrustRegion, LimitsAndInvalidOptions) {
   Rosenbrock rb;
   TrustRegionOptions o;
