@@ -129,7 +129,21 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     return o.method == "newton" ? optimizeNewton(m, sp, opt, prog) : optimizeReduced(m, sp, opt, prog);
   };
   auto optimizeWith = [&](const DesignOptimizerOptions& opt) { return optimizeOn(model, space, opt, progress); };
-  DesignOptimizerResult r = optimizeWith(o.optimizer);
+  // Where a second start may follow (below), each run leaves its
+  // imperfection back-off (DesignOptimizerOptions::imperfectionBackOff) to
+  // this function, which runs it on the run it keeps only: the back-off
+  // solves every pose from rest several times, and a run that is not kept
+  // need not pay for it. `spent`: the time the runs took so far, which
+  // --time-limit covers too.
+  auto backOff = [&](DesignOptimizerResult& run, double spent) {
+    DesignOptimizerOptions opt = o.optimizer;
+    if (opt.timeLimit > 0) opt.timeLimit = std::max(1e-9, opt.timeLimit - spent);
+    completeImperfectionBackOff(model, space, opt, run);
+  };
+  DesignOptimizerOptions first = o.optimizer;
+  first.deferImperfectionBackOff = o.optimizer.imperfectionBackOff && o.optimizer.startFromTargets &&
+                                   scene.design.restShape;
+  DesignOptimizerResult r = optimizeWith(first);
   // A second start (docs/optimization.md, "A second start"): with the rest
   // shape free, a run from the scene's rest shape that ended by its own
   // tests with the targets not met (RMS above kSecondStartRms of the initial
@@ -139,7 +153,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
   if (o.optimizer.startFromTargets && scene.design.restShape && r.start.empty() && !r.startCandidate.empty() &&
       (r.outcome == Outcome::Converged || r.outcome == Outcome::Stalled) && r.initialRms > 0 &&
       r.rms > kSecondStartRms * r.initialRms) {
-    DesignOptimizerOptions second = o.optimizer;
+    DesignOptimizerOptions second = first;
     second.startTargetPose = r.startCandidatePose;
     bool timeLeft = true;  // --time-limit covers both runs
     if (second.timeLimit > 0) {
@@ -154,10 +168,22 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       DesignOptimizerResult r2 = optimizeWith(second);
       // The second run's design replaces the first's when it is better and
       // its run ended as well (a converged first run is not traded for a
-      // second one cut by the time limit).
+      // second one cut by the time limit). Judged before the back-off, then
+      // again after it when backing off made the better one worse than the
+      // other (then backed off too).
       const bool endedAsWell = r2.outcome == Outcome::Converged || r.outcome != Outcome::Converged;
-      const bool secondWins = !r2.start.empty() && r2.outcome != Outcome::InvalidProblem &&
-                           r2.outcome != Outcome::NumericalFailure && r2.usable && endedAsWell && r2.rms < r.rms;
+      const bool secondCounts = !r2.start.empty() && r2.outcome != Outcome::InvalidProblem &&
+                                r2.outcome != Outcome::NumericalFailure && r2.usable && endedAsWell;
+      bool secondWins = secondCounts && r2.rms < r.rms;
+      const double spent = r.timeSeconds + r2.timeSeconds;
+      DesignOptimizerResult& winner = secondWins ? r2 : r;
+      DesignOptimizerResult& loser = secondWins ? r : r2;
+      const double loserRms = loser.rms;
+      backOff(winner, spent);
+      if (secondCounts && winner.rms > loserRms) {
+        backOff(loser, spent + winner.timeSeconds);
+        secondWins = secondCounts && r2.rms < r.rms;
+      }
       char buf[200];
       if (secondWins)
         std::snprintf(buf, sizeof buf, "; a second run, from %s (RMS %.4f mm) is the result, against %.4f mm from the "
@@ -172,6 +198,7 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       if (secondWins) r = std::move(r2);
     }
   }
+  backOff(r, r.timeSeconds);  // when no second start ran (nothing happens otherwise)
   // A scene without normals has them derived from its rest shape, and the
   // optimizer keeps them while it designs the rest shape (docs/formats.md);
   // `rodmesh simulate` of the archived design derives them from the

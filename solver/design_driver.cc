@@ -53,6 +53,34 @@ std::string millimetres(double metres) {
 }  // namespace
 
 // The run's state; PhaseContext forwards to it.
+namespace {
+
+// The result's equilibria: their largest force residual, and whether there
+// is one finite equilibrium per pose to use; with `bounds`, how much the
+// radius bounds hold the design back (one adjoint solve per pose; not where
+// the targets are met: the gradient is round-off there and nothing holds the
+// design back), said in the message.
+void describeResult(const SceneModel& model, const DesignSpace& space, const TargetObjective& objective,
+                    const DesignOptimizerOptions& opt, DesignOptimizerResult& res, bool bounds) {
+  res.usable = static_cast<int>(res.states.size()) == model.numPoses();
+  res.residualNorm = 0.0;
+  for (int k = 0; res.usable && k < model.numPoses(); ++k) {
+    Eigen::VectorXd g;
+    model.pose(k).evaluate(res.states[k], res.design, &g, nullptr);
+    const double r = model.pose(k).forceResidual(g).norm();
+    res.usable = std::isfinite(r) && res.states[k].u.allFinite() && res.states[k].loadFactor == 1.0;
+    res.residualNorm = std::max(res.residualNorm, r);
+  }
+  if (bounds && res.usable && res.outcome != Outcome::InvalidProblem &&
+      res.objective > kTargetsMetRatio * res.initialObjective) {
+    res.boundActivity = radiusBoundActivity(model, space, objective, res.controls, res.states, opt.newton);
+    const std::string held = describeBoundActivity(res.boundActivity);
+    if (!held.empty()) res.message += "; " + held;
+  }
+}
+
+}  // namespace
+
 class DesignDriver {
  public:
   DesignDriver(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
@@ -99,25 +127,11 @@ class DesignDriver {
   DesignOptimizerResult finish(Outcome o, const std::string& message) {
     res_.outcome = o;
     res_.message = message;
-    // The result's equilibria: their largest force residual, and whether
-    // there is one finite equilibrium per pose to use.
-    res_.usable = static_cast<int>(res_.states.size()) == model_.numPoses();
-    res_.residualNorm = 0.0;
-    for (int k = 0; res_.usable && k < model_.numPoses(); ++k) {
-      Eigen::VectorXd g;
-      model_.pose(k).evaluate(res_.states[k], res_.design, &g, nullptr);
-      const double r = model_.pose(k).forceResidual(g).norm();
-      res_.usable = std::isfinite(r) && res_.states[k].u.allFinite() && res_.states[k].loadFactor == 1.0;
-      res_.residualNorm = std::max(res_.residualNorm, r);
-    }
-    // Where the targets are met the gradient is round-off: nothing holds the
-    // design back. Not past the run's limits (one adjoint solve per pose).
-    if (res_.usable && o != Outcome::InvalidProblem && !interrupted() && !timeUp() &&
-        res_.objective > kTargetsMetRatio * res_.initialObjective) {
-      res_.boundActivity = radiusBoundActivity(model_, space_, objective_, res_.controls, res_.states, opt_.newton);
-      const std::string held = describeBoundActivity(res_.boundActivity);
-      if (!held.empty()) res_.message += "; " + held;
-    }
+    res_.startControls = start_;
+    // A pending back-off may change the design: the bounds are judged on
+    // the one it leaves (completeImperfectionBackOff).
+    describeResult(model_, space_, objective_, opt_, res_,
+                   !res_.imperfectionBackOffPending && !interrupted() && !timeUp());
     res_.timeSeconds = since(t0_);
     res_.solverSeconds = std::max(0.0, res_.timeSeconds - res_.evaluationSeconds);
     res_.peakMemoryBytes = peakResidentMemory();
@@ -243,8 +257,32 @@ const DesignOptimizerOptions& PhaseContext::options() const { return driver_.opt
 // the back-off and the last sensitive one (each tests one design: three
 // loading paths per pose, and the imperfect ones).
 constexpr int kBackOffBisections = 3;
+constexpr const char* kCheckingImperfection =
+    "checking the final design for imperfection sensitivity (every pose from rest with its radii 0.1% off)";
 
-std::string DesignDriver::backOffFromImperfection() {
+namespace {
+
+// What the back-off needs of the run it backs off in: its start, its
+// limits, and how a design becomes the result.
+struct BackOffRun {
+  const SceneModel& model;
+  const DesignSpace& space;
+  const TargetObjective& objective;
+  const DesignOptimizerOptions& opt;
+  const ControlValues& start;
+  DesignOptimizerResult& res;
+  std::function<bool()> interrupted, timeUp;
+  std::function<void(const ControlValues&, const Design&, double f, double rms, const std::vector<PoseState>&)> adopt;
+};
+
+// See DesignDriver::backOffFromImperfection.
+std::string backOffFromImperfection(const BackOffRun& run) {
+  const SceneModel& model = run.model;
+  const DesignSpace& space = run.space;
+  const DesignOptimizerOptions& opt = run.opt;
+  DesignOptimizerResult& res = run.res;
+  const auto& interrupted = run.interrupted;
+  const auto& timeUp = run.timeUp;
   // `d` solved from rest into `sim` and tested: true when a pose is
   // sensitive (`pose`, `gap`: the first such). A design with a pose that
   // does not solve from rest is not tested (sim.allConverged false; such
@@ -252,10 +290,10 @@ std::string DesignDriver::backOffFromImperfection() {
   auto sensitive = [&](const Design& d, SimulationResult& sim, std::string& pose, double& gap) {
     const auto te = Clock::now();
     // (unloaded stiffness: atCriticalPoint below)
-    sim = simulateAll(model_, d, opt_.newton, {}, /*unloadedStiffness=*/true, opt_.threads);
+    sim = simulateAll(model, d, opt.newton, {}, /*unloadedStiffness=*/true, opt.threads);
     bool any = false;
     if (sim.allConverged) {
-      addImperfectionSensitivity(model_, d, opt_.newton, sim, opt_.threads);
+      addImperfectionSensitivity(model, d, opt.newton, sim, opt.threads);
       for (const PoseResult& p : sim.poses)
         if (p.imperfectionSensitive() && !any) {
           any = true;
@@ -263,19 +301,19 @@ std::string DesignDriver::backOffFromImperfection() {
           gap = p.imperfectionGap.value_or(0.0);
         }
     }
-    res_.evaluationSeconds += since(te);
+    res.evaluationSeconds += since(te);
     return any;
   };
   SimulationResult sim;
   std::string pose;
   double gap = 0.0;
-  const bool base = sensitive(res_.design, sim, pose, gap);
+  const bool base = sensitive(res.design, sim, pose, gap);
   if (interrupted()) return "";  // solves cut short prove nothing
-  if (sim.allConverged) res_.imperfectionCheck = sim;
+  if (sim.allConverged) res.imperfectionCheck = sim;
   if (!base || !sim.allConverged) return "";
-  const ControlValues& initial = start_;
+  const ControlValues& initial = run.start;
   const std::string from =
-      sameControls(start_, space_.initialControls(scene_)) ? "the initial design" : "the design the run started from";
+      sameControls(run.start, space.initialControls(model.scene())) ? "the initial design" : "the design the run started from";
   const std::string gapText = std::isfinite(gap) ? "reaches an equilibrium " + millimetres(gap) + " away"
                                            : "reaches no equilibrium";
   const std::string what = "pose '" + pose + "' of the final design is imperfection-sensitive (with its radii 0.1% " +
@@ -291,15 +329,15 @@ std::string DesignDriver::backOffFromImperfection() {
   };
   auto robust = [&](double t, Tested& out) {
     out.controls = initial;
-    out.controls.radii = initial.radii + t * (res_.controls.radii - initial.radii);
-    out.controls.displacement = initial.displacement + t * (res_.controls.displacement - initial.displacement);
-    out.design = space_.toDesign(out.controls);
+    out.controls.radii = initial.radii + t * (res.controls.radii - initial.radii);
+    out.controls.displacement = initial.displacement + t * (res.controls.displacement - initial.displacement);
+    out.design = space.toDesign(out.controls);
     std::string p;
     double g = 0.0;
     if (sensitive(out.design, out.sim, p, g) || !out.sim.allConverged || interrupted()) return false;
     std::vector<PoseState> states;
     for (const PoseResult& r : out.sim.poses) states.push_back(r.state);
-    out.rms = objective_.rms(objectiveOfStates(model_, objective_, out.design, states, out.f));
+    out.rms = run.objective.rms(objectiveOfStates(model, run.objective, out.design, states, out.f));
     return true;
   };
   double lastSensitive = 1.0;  // the final design
@@ -310,7 +348,7 @@ std::string DesignDriver::backOffFromImperfection() {
       lastSensitive = t;
       continue;
     }
-    if (!(ok.f < res_.initialObjective)) break;  // farther back is no better
+    if (!(ok.f < res.initialObjective)) break;  // farther back is no better
     // The edge lies between t and the last sensitive design: a few
     // bisections find a robust design nearer to it, which near the edge is
     // the better one (the steps of t are coarse where the final design is
@@ -336,11 +374,11 @@ std::string DesignDriver::backOffFromImperfection() {
       ok = std::move(m);
       tOk = mid;
     }
-    const double before = res_.rms;
+    const double before = res.rms;
     std::vector<PoseState> states;
     for (const PoseResult& r : ok.sim.poses) states.push_back(r.state);
-    adopt(ok.controls, ok.design, ok.f, ok.rms, states, states);
-    res_.imperfectionCheck = std::move(ok.sim);
+    run.adopt(ok.controls, ok.design, ok.f, ok.rms, states);
+    res.imperfectionCheck = std::move(ok.sim);
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.4g", tOk);
     return what + ": the result is the design " + buf + " of the way from " + from + " to it, the nearest " +
@@ -348,6 +386,16 @@ std::string DesignDriver::backOffFromImperfection() {
            ")";
   }
   return what + "; no design between it and " + from + " that was tested is better and not sensitive";
+}
+
+}  // namespace
+
+std::string DesignDriver::backOffFromImperfection() {
+  BackOffRun run{model_, space_, objective_, opt_, start_, res_, [this] { return interrupted(); },
+                 [this] { return timeUp(); },
+                 [this](const ControlValues& c, const Design& d, double f, double rms,
+                        const std::vector<PoseState>& states) { adopt(c, d, f, rms, states, states); }};
+  return rodmesh::backOffFromImperfection(run);
 }
 
 double DesignDriver::structureSize() const {
@@ -1012,8 +1060,10 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
       if (stop == Outcome::Converged) stop = Outcome::Stalled;
     }
   }
-  if (opt_.imperfectionBackOff && !interrupted() && !timeUp()) {
-    doing("checking the final design for imperfection sensitivity (every pose from rest with its radii 0.1% off)");
+  if (opt_.imperfectionBackOff && opt_.deferImperfectionBackOff) {
+    res_.imperfectionBackOffPending = true;
+  } else if (opt_.imperfectionBackOff && !interrupted() && !timeUp()) {
+    doing(kCheckingImperfection);
     const std::string backOff = backOffFromImperfection();
     if (!backOff.empty()) message += "; " + backOff;
   }
@@ -1022,6 +1072,34 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
   res_.states = optimizer_;
   res_.fallbacks = fallbacks_.designs();
   return finish(stop, message);
+}
+
+void completeImperfectionBackOff(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
+                                 DesignOptimizerResult& res) {
+  if (!res.imperfectionBackOffPending) return;
+  res.imperfectionBackOffPending = false;
+  const auto t0 = Clock::now();
+  auto interrupted = [&opt] { return opt.stopRequested && opt.stopRequested(); };
+  auto timeUp = [&opt, t0] { return opt.timeLimit > 0 && since(t0) >= opt.timeLimit; };
+  const TargetObjective objective(model.scene(), model.effects());
+  if (!interrupted() && !timeUp()) {
+    if (opt.activity) opt.activity(kCheckingImperfection);
+    BackOffRun run{model, space, objective, opt, res.startControls, res, interrupted, timeUp,
+                   [&res](const ControlValues& c, const Design& d, double f, double rms,
+                          const std::vector<PoseState>& states) {
+                     res.controls = c;
+                     res.design = d;
+                     res.objective = f;
+                     res.rms = rms;
+                     res.states = states;
+                   }};
+    const std::string backOff = backOffFromImperfection(run);
+    if (!backOff.empty()) res.message += "; " + backOff;
+  }
+  describeResult(model, space, objective, opt, res, !interrupted() && !timeUp());
+  res.timeSeconds += since(t0);
+  res.solverSeconds = std::max(0.0, res.timeSeconds - res.evaluationSeconds);
+  res.peakMemoryBytes = std::max(res.peakMemoryBytes, peakResidentMemory());
 }
 
 DesignOptimizerResult runDesign(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& options,

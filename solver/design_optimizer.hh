@@ -152,6 +152,10 @@ struct DesignOptimizerOptions {
   // does better than the initial one (docs/optimization.md, "Imperfection
   // back-off").
   bool imperfectionBackOff = true;
+  // Leave that back-off to the caller (completeImperfectionBackOff): a front
+  // end that runs the schedule more than once (a second start) and keeps
+  // one result backs off only the one it keeps.
+  bool deferImperfectionBackOff = false;
   // With the rest shape free, also try as the start the rest shapes in which
   // one pose's target is the unloaded shape, each solved from rest; the
   // best of them and the initial design is where the schedule starts
@@ -234,7 +238,20 @@ struct DesignOptimizerResult : SolveSummary {
   // was tried): what a second start would start from.
   std::string startCandidate;
   int startCandidatePose = -1;  // its pose index
+  ControlValues startControls;  // the design the schedule started from
+  // The imperfection back-off was deferred (deferImperfectionBackOff) and
+  // has not run yet; boundActivity is then not computed either.
+  bool imperfectionBackOffPending = false;
 };
+
+// The back-off a run deferred (DesignOptimizerOptions::
+// deferImperfectionBackOff), on its result: the design may change, the
+// message says so, imperfectionCheck, the equilibria's summary and the bound
+// activity are set as the run would have set them, and the time is added.
+// `options` are the run's, with timeLimit the time left for this (0: none).
+// Nothing happens when no back-off is pending.
+void completeImperfectionBackOff(const SceneModel& model, const DesignSpace& space,
+                                 const DesignOptimizerOptions& options, DesignOptimizerResult& result);
 
 // The phases of a schedule (paper: radii level by level, then rounds of rest
 // shape and radii at the finest level; joint: everything at the finest).

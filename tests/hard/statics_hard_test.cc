@@ -16,6 +16,7 @@
 //   - axial loads: F L / (E A) (the stretching force is linear in strain).
 #include "io/scene_reader.hh"
 #include "model/stiffness.hh"
+#include "solver/design_optimizer.hh"
 #include "solver/equilibrium.hh"
 #include "solver/newton.hh"
 #include "tests/hard/hard_util.hh"
@@ -467,6 +468,48 @@ TEST_F(HardStatics, ArchDesignedToItsLimitPointSaysSoReduced) { archDesignedToIt
 #ifdef RODMESH_HAVE_NLP
 TEST_F(HardStatics, ArchDesignedToItsLimitPointSaysSoSand) { archDesignedToItsLimitPoint(*this, "sand"); }
 #endif
+
+// The same design run with its back-off left to the caller, as `rodmesh
+// optimize` leaves it when a second start may replace the run
+// (DesignOptimizerOptions::deferImperfectionBackOff): the run ends at the
+// limit point, not yet backed off, and completeImperfectionBackOff then
+// ends where the run's own back-off does (design, RMS, message, check and
+// bound activity).
+TEST_F(HardStatics, ADeferredBackOffEndsWhereTheRunsOwnDoes) {
+  Scene s = shallowArch(0.2);
+  for (const Vec3& x : s.vertices) s.poses[0].target.push_back(Vec3(x.x(), x.y(), 0.0));
+  s.design.present = s.design.radii = true;
+  s.design.hasRadiusBounds = true;
+  s.design.radiusMin = 0.003;
+  s.design.radiusMax = 0.006;
+  const SceneModel model(s);
+  const DesignSpace space(s, model.effects());
+  DesignOptimizerOptions opt;
+  const DesignOptimizerResult own = optimizeNewton(model, space, opt);
+  ASSERT_TRUE(own.usable) << own.message;
+  ASSERT_NE(own.message.find("of the final design is imperfection-sensitive"), std::string::npos) << own.message;
+  EXPECT_FALSE(own.imperfectionBackOffPending);
+
+  opt.deferImperfectionBackOff = true;
+  DesignOptimizerResult deferred = optimizeNewton(model, space, opt);
+  EXPECT_TRUE(deferred.imperfectionBackOffPending);
+  EXPECT_EQ(deferred.message.find("imperfection-sensitive"), std::string::npos) << deferred.message;
+  EXPECT_FALSE(deferred.boundActivity.computed);
+  EXPECT_LT(deferred.rms, own.rms) << "at the limit point, nearer the flat target";
+
+  completeImperfectionBackOff(model, space, opt, deferred);
+  EXPECT_FALSE(deferred.imperfectionBackOffPending);
+  EXPECT_TRUE(sameControls(deferred.controls, own.controls));
+  EXPECT_EQ(deferred.rms, own.rms);
+  EXPECT_EQ(deferred.message, own.message);
+  EXPECT_TRUE(deferred.usable);
+  EXPECT_EQ(deferred.residualNorm, own.residualNorm);
+  ASSERT_EQ(deferred.imperfectionCheck.poses.size(), 1u);
+  EXPECT_EQ(deferred.imperfectionCheck.poses[0].imperfectionGap, own.imperfectionCheck.poses[0].imperfectionGap);
+  EXPECT_TRUE(deferred.boundActivity.computed);
+  EXPECT_EQ(deferred.boundActivity.held, own.boundActivity.held);
+  EXPECT_EQ(deferred.boundActivity.upperElasticity, own.boundActivity.upperElasticity);
+}
 
 // --- The loading path: critical points, imperfections ----------------------------
 
