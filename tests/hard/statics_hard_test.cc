@@ -399,13 +399,18 @@ TEST_F(HardStatics, ShallowArchSnapsThrough) { arch(*this, 5.0, true); }
 // design stays up under the load and snaps under 1% more. By default the
 // run backs off from it to a design that radii 0.1% off do not snap
 // through, at a cost below 1% of the RMS.
-void archDesignedToItsLimitPoint(HardCase& t, const std::string& method) {
+Scene archWithFreeRadii() {
   Scene s = shallowArch(0.2);
   for (const Vec3& x : s.vertices) s.poses[0].target.push_back(Vec3(x.x(), x.y(), 0.0));
   s.design.present = s.design.radii = true;
   s.design.hasRadiusBounds = true;
   s.design.radiusMin = 0.003;
   s.design.radiusMax = 0.006;
+  return s;
+}
+
+void archDesignedToItsLimitPoint(HardCase& t, const std::string& method) {
+  const Scene s = archWithFreeRadii();
   writeSceneFile(s, t.path("arch.json"));  // t.simulate writes scene.json
   const RunResult opt = t.run("optimize arch.json -o out.h5 --no-imperfection-back-off --method " + method);
   ASSERT_EQ(opt.status, 0) << opt.err;
@@ -476,12 +481,7 @@ TEST_F(HardStatics, ArchDesignedToItsLimitPointSaysSoSand) { archDesignedToItsLi
 // ends where the run's own back-off does (design, RMS, message, check and
 // bound activity).
 TEST_F(HardStatics, ADeferredBackOffEndsWhereTheRunsOwnDoes) {
-  Scene s = shallowArch(0.2);
-  for (const Vec3& x : s.vertices) s.poses[0].target.push_back(Vec3(x.x(), x.y(), 0.0));
-  s.design.present = s.design.radii = true;
-  s.design.hasRadiusBounds = true;
-  s.design.radiusMin = 0.003;
-  s.design.radiusMax = 0.006;
+  const Scene s = archWithFreeRadii();
   const SceneModel model(s);
   const DesignSpace space(s, model.effects());
   DesignOptimizerOptions opt;

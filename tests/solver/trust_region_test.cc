@@ -235,10 +235,13 @@ TEST(TrustRegion, FailedEvaluationsShrinkTheRadius) {
 // little: that is the radius's limit, not convergence. On a quadratic from
 // radius 1e-8 with the relative-decrease test over 10 iterations, the run
 // must reach the minimizer, not stop after the first ten doublings.
-TEST(TrustRegion, ARadiusStillGrowingIsNotAStall) {
+// f = c + |x - 1|^2 / 2 (plus `jump` where x0 >= 0.5), gradient and
+// Hessian those of the quadratic; the stall test over 10 iterations at
+// 1e-3, minRadius 1e-12.
+TrustRegionProblem shiftedQuadratic(double c, double jump, TrustRegionOptions& o) {
   TrustRegionProblem p;
-  p.value = [](const VectorXd& x, double& f) {
-    f = 1 + 0.5 * (x.array() - 1).square().sum();
+  p.value = [c, jump](const VectorXd& x, double& f) {
+    f = c + 0.5 * (x.array() - 1).square().sum() + (x[0] >= 0.5 ? jump : 0.0);
     return true;
   };
   p.prepare = [](const VectorXd& x, VectorXd& g) {
@@ -246,12 +249,17 @@ TEST(TrustRegion, ARadiusStillGrowingIsNotAStall) {
     return true;
   };
   p.hessian = [](const VectorXd& v) -> VectorXd { return v; };
-  TrustRegionOptions o;
-  o.initialRadius = 1e-8;
   o.minRadius = 1e-12;
   o.relativeDecrease = 1e-3;
   o.stallWindow = 10;
   o.gradientTolerance = 1e-8;
+  return p;
+}
+
+TEST(TrustRegion, ARadiusStillGrowingIsNotAStall) {
+  TrustRegionOptions o;
+  const TrustRegionProblem p = shiftedQuadratic(1.0, 0.0, o);
+  o.initialRadius = 1e-8;
   const VectorXd lo = VectorXd::Constant(3, -kInf), hi = VectorXd::Constant(3, kInf);
   const TrustRegionResult r = minimizeTrustRegion(p, VectorXd::Zero(3), lo, hi, o);
   ASSERT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
@@ -268,22 +276,9 @@ TEST(TrustRegion, ARadiusStillGrowingIsNotAStall) {
 // growth after each accepted step as a radius still growing (the run would
 // otherwise go on until the radius falls below minRadius).
 TEST(TrustRegion, CreepingTowardsACliffIsAStall) {
-  TrustRegionProblem p;
-  p.value = [](const VectorXd& x, double& f) {
-    f = 0.5 * (x.array() - 1).square().sum() + (x[0] >= 0.5 ? 10.0 : 0.0);
-    return true;
-  };
-  p.prepare = [](const VectorXd& x, VectorXd& g) {
-    g = x.array() - 1;
-    return true;
-  };
-  p.hessian = [](const VectorXd& v) -> VectorXd { return v; };
   TrustRegionOptions o;
+  const TrustRegionProblem p = shiftedQuadratic(0.0, 10.0, o);
   o.initialRadius = 0.1;
-  o.minRadius = 1e-12;
-  o.relativeDecrease = 1e-3;
-  o.stallWindow = 10;
-  o.gradientTolerance = 1e-8;
   const VectorXd lo = VectorXd::Constant(1, -kInf), hi = VectorXd::Constant(1, kInf);
   const TrustRegionResult r = minimizeTrustRegion(p, VectorXd::Zero(1), lo, hi, o);
   EXPECT_EQ(r.status.outcome, Outcome::Converged) << r.status.message;
