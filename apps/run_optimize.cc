@@ -141,8 +141,8 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
     completeImperfectionBackOff(model, space, opt, run);
   };
   DesignOptimizerOptions first = o.optimizer;
-  first.deferImperfectionBackOff = o.optimizer.imperfectionBackOff && o.optimizer.startFromTargets &&
-                                   scene.design.restShape;
+  first.deferImperfectionBackOff =
+      o.optimizer.imperfectionBackOff && o.optimizer.startFromTargets && scene.design.restShape;
   DesignOptimizerResult r = optimizeWith(first);
   // A second start (docs/optimization.md, "A second start"): with the rest
   // shape free, a run from the scene's rest shape that ended by its own

@@ -52,7 +52,6 @@ std::string millimetres(double metres) {
 }
 }  // namespace
 
-// The run's state; PhaseContext forwards to it.
 namespace {
 
 // The result's equilibria: their largest force residual, and whether there
@@ -81,6 +80,7 @@ void describeResult(const SceneModel& model, const DesignSpace& space, const Tar
 
 }  // namespace
 
+// The run's state; PhaseContext forwards to it.
 class DesignDriver {
  public:
   DesignDriver(const SceneModel& model, const DesignSpace& space, const DesignOptimizerOptions& opt,
@@ -312,8 +312,9 @@ std::string backOffFromImperfection(const BackOffRun& run) {
   if (sim.allConverged) res.imperfectionCheck = sim;
   if (!base || !sim.allConverged) return "";
   const ControlValues& initial = run.start;
-  const std::string from =
-      sameControls(run.start, space.initialControls(model.scene())) ? "the initial design" : "the design the run started from";
+  const std::string from = sameControls(run.start, space.initialControls(model.scene()))
+                               ? "the initial design"
+                               : "the design the run started from";
   const std::string gapText = std::isfinite(gap) ? "reaches an equilibrium " + millimetres(gap) + " away"
                                            : "reaches no equilibrium";
   const std::string what = "pose '" + pose + "' of the final design is imperfection-sensitive (with its radii 0.1% " +
@@ -391,7 +392,13 @@ std::string backOffFromImperfection(const BackOffRun& run) {
 }  // namespace
 
 std::string DesignDriver::backOffFromImperfection() {
-  BackOffRun run{model_, space_, objective_, opt_, start_, res_, [this] { return interrupted(); },
+  BackOffRun run{model_,
+                 space_,
+                 objective_,
+                 opt_,
+                 start_,
+                 res_,
+                 [this] { return interrupted(); },
                  [this] { return timeUp(); },
                  [this](const ControlValues& c, const Design& d, double f, double rms,
                         const std::vector<PoseState>& states) { adopt(c, d, f, rms, states, states); }};
@@ -1084,15 +1091,22 @@ void completeImperfectionBackOff(const SceneModel& model, const DesignSpace& spa
   const TargetObjective objective(model.scene(), model.effects());
   if (!interrupted() && !timeUp()) {
     if (opt.activity) opt.activity(kCheckingImperfection);
-    BackOffRun run{model, space, objective, opt, res.startControls, res, interrupted, timeUp,
-                   [&res](const ControlValues& c, const Design& d, double f, double rms,
-                          const std::vector<PoseState>& states) {
-                     res.controls = c;
-                     res.design = d;
-                     res.objective = f;
-                     res.rms = rms;
-                     res.states = states;
-                   }};
+    BackOffRun run{
+        model,
+        space,
+        objective,
+        opt,
+        res.startControls,
+        res,
+        interrupted,
+        timeUp,
+        [&res](const ControlValues& c, const Design& d, double f, double rms, const std::vector<PoseState>& states) {
+          res.controls = c;
+          res.design = d;
+          res.objective = f;
+          res.rms = rms;
+          res.states = states;
+        }};
     const std::string backOff = backOffFromImperfection(run);
     if (!backOff.empty()) res.message += "; " + backOff;
   }
