@@ -175,13 +175,12 @@ OptimizeRun runOptimize(const Scene& scene, const SceneModel& model, const Desig
       const bool secondCounts = !r2.start.empty() && r2.outcome != Outcome::InvalidProblem &&
                                 r2.outcome != Outcome::NumericalFailure && r2.usable && endedAsWell;
       bool secondWins = secondCounts && r2.rms < r.rms;
-      const double spent = r.timeSeconds + r2.timeSeconds;
       DesignOptimizerResult& winner = secondWins ? r2 : r;
       DesignOptimizerResult& loser = secondWins ? r : r2;
       const double loserRms = loser.rms;
-      backOff(winner, spent);
+      backOff(winner, r.timeSeconds + r2.timeSeconds);
       if (secondCounts && winner.rms > loserRms) {
-        backOff(loser, spent + winner.timeSeconds);
+        backOff(loser, r.timeSeconds + r2.timeSeconds);  // (the winner's back-off included)
         secondWins = secondCounts && r2.rms < r.rms;
       }
       char buf[200];
