@@ -219,7 +219,7 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
   if (gradientConverged()) return finish(res.status);
 
   std::vector<double> accepted{f};
-  std::vector<double> radii{radius};  // the trust radius at the start and after each iteration
+  double acceptedRadius = radius;  // after the last accepted step (at the start: the initial radius)
   int rejected = 0;
   for (int iteration = 1; iteration <= opt.maxIterations;) {
     const double pgNow = pg.norm();
@@ -281,15 +281,16 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
     // Steps limited by a radius that is still growing say nothing about
     // convergence: a phase started with a small radius doubles it for many
     // iterations, each a small decrease. The relative-decrease test is
-    // therefore skipped while the radius is larger than at the start of its
-    // window. A radius that grows after each accepted step but shrinks over
-    // the window (steps accepted and rejected in turn, creeping towards a
-    // point where the objective jumps: a fold of a loading path) does not
-    // count as growing: that creep is what the test is there to stop.
+    // therefore skipped when the radius after this step is larger than after
+    // the last accepted one. Steps accepted and rejected in turn (creeping
+    // towards a point where the objective jumps: a fold of a loading path)
+    // double the radius at each acceptance, but each rejection quarters it:
+    // over the pair it shrinks, and that creep is what the test stops.
     if (rho < 0.25) radius = opt.shrink * sNorm;
     else if (rho > 0.75 && step.reachedRadius) radius = std::min(opt.grow * radius, opt.maxRadius);
     radius = std::max(radius, opt.minRadius);
-    radii.push_back(radius);
+    const bool growing = radius > acceptedRadius;
+    acceptedRadius = radius;
     x = std::move(xNew);
     f = fNew;
     g = std::move(gNew);
@@ -313,7 +314,7 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
     record(it);
     rejected = 0;
     if (gradientConverged()) return finish(res.status);
-    if (iteration >= opt.stallWindow && !(radius > radii[iteration - 1])) {
+    if (iteration >= opt.stallWindow && !growing) {
       const double fOld = accepted[iteration - opt.stallWindow];
       if (fOld - f <= opt.relativeDecrease * std::abs(fOld))
         return finish({Outcome::Converged, formatMessage("relative decrease below %.3g over %d iterations",

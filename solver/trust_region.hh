@@ -34,8 +34,8 @@
 // Stopping tests at every accepted point, as in solver/bfgs.hh:
 // |Pg|_inf <= gradientTolerance x scale (scale = gradientScale, or
 // |Pg(x0)|_inf), the relative decrease over stallWindow iterations (not
-// tested while the radius is larger than at the window's start: the
-// decrease was limited by a radius still growing),
+// tested when the radius after the step is larger than after the last
+// accepted step: the decrease was limited by a radius still growing),
 // maxIterations (accepted steps), timeLimit and stopRequested (polled before
 // every evaluation and every Hessian product of CG), Stalled when D falls below minRadius, NumericalFailure
 // when x0 cannot be evaluated. The result is the last accepted point, which
