@@ -5,10 +5,15 @@
 #include <algorithm>
 #include <cctype>
 #include <cstring>
+#include <climits>
 #include <iostream>
 #include <new>
 #include <string>
 #include <vector>
+
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 namespace {
 
@@ -58,6 +63,18 @@ std::string parseErrorMessage(const CLI::ParseError& e) {
 }  // namespace
 
 int main(int argc, char** argv) {
+#ifdef __GLIBC__
+  // glibc serves every block above its mmap threshold (32 MiB at most) from a
+  // fresh mapping and unmaps it on free. MUMPS allocates its factorization
+  // workspace anew for every factorization and zeroes it, and the sparse
+  // LDLT's ordering copies the Hessian's pattern: each of them then faults in
+  // fresh zeroed pages from the kernel, iteration after iteration. Served
+  // from the heap (no mmap) and kept there after free (trim threshold 2 GiB),
+  // the pages are reused. The peak memory is the same; memory freed below
+  // the heap's top stays with the process until it exits.
+  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_TRIM_THRESHOLD, INT_MAX);
+#endif
   using namespace rodmesh::cli;
   CLI::App app{"rodmesh: design of 3D-printable flexible rod meshes"};
   app.require_subcommand(1);
