@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cstring>
 #include <climits>
+#include <cstring>
 #include <iostream>
 #include <new>
 #include <string>
@@ -70,8 +70,9 @@ int main(int argc, char** argv) {
   // LDLT's ordering copies the Hessian's pattern: each of them then faults in
   // fresh zeroed pages from the kernel, iteration after iteration. Served
   // from the heap (no mmap) and kept there after free (trim threshold 2 GiB),
-  // the pages are reused. The peak memory is the same; memory freed below
-  // the heap's top stays with the process until it exits.
+  // the pages are reused. The cost: freed memory is not given back to the
+  // system (below the heap's top at all, at its top up to 2 GiB) until the
+  // process exits; the peak is that of the largest working set, as before.
   mallopt(M_MMAP_MAX, 0);
   mallopt(M_TRIM_THRESHOLD, INT_MAX);
 #endif
