@@ -1,19 +1,15 @@
 // rodmesh: command-line entry point. Parses the verb and hands over to it.
 #include "apps/commands.hh"
+#include "apps/run.hh"
 #include "io/scene_reader.hh"
 
 #include <algorithm>
 #include <cctype>
-#include <climits>
 #include <cstring>
 #include <iostream>
 #include <new>
 #include <string>
 #include <vector>
-
-#ifdef __GLIBC__
-#include <malloc.h>
-#endif
 
 namespace {
 
@@ -63,19 +59,9 @@ std::string parseErrorMessage(const CLI::ParseError& e) {
 }  // namespace
 
 int main(int argc, char** argv) {
-#ifdef __GLIBC__
-  // glibc serves every block above its mmap threshold (32 MiB at most) from a
-  // fresh mapping and unmaps it on free. MUMPS allocates its factorization
-  // workspace anew for every factorization and zeroes it, and the sparse
-  // LDLT's ordering copies the Hessian's pattern: each of them then faults in
-  // fresh zeroed pages from the kernel, iteration after iteration. Served
-  // from the heap (no mmap) and kept there after free (trim threshold 2 GiB),
-  // the pages are reused. The cost: freed memory is not given back to the
-  // system (below the heap's top at all, at its top up to 2 GiB) until the
-  // process exits; the peak is that of the largest working set, as before.
-  mallopt(M_MMAP_MAX, 0);
-  mallopt(M_TRIM_THRESHOLD, INT_MAX);
-#endif
+  // Large blocks from the heap, kept after free (apps/heap_policy.cc): the
+  // factorizations' workspaces are reused instead of faulted in anew.
+  rodmesh::cli::keepLargeBlocksOnHeap();
   using namespace rodmesh::cli;
   CLI::App app{"rodmesh: design of 3D-printable flexible rod meshes"};
   app.require_subcommand(1);

@@ -23,6 +23,12 @@ namespace rodmesh::cli {
 // The version string stored in archives.
 const char* versionString();
 
+// Serves large blocks from the heap and keeps freed memory there
+// (apps/heap_policy.cc): `rodmesh` applies it at start, Python scripts through
+// rodmesh.keep_large_blocks_on_heap(). Process-wide. Returns whether it took
+// effect (glibc only; false elsewhere and where mallopt refuses).
+bool keepLargeBlocksOnHeap();
+
 // ---- simulate (apps/run_simulate.cc)
 
 struct SimulateOptions {

@@ -620,6 +620,7 @@ PYBIND11_MODULE(_rodmesh, m) {
   m.def("simulate", &simulate, py::arg("scene"), py::arg("options"), py::arg("quiet") = true);
   m.def("optimize", &optimize, py::arg("scene"), py::arg("options"), py::arg("callback") = py::none(),
         py::arg("quiet") = true);
+  m.def("keep_large_blocks_on_heap", &rodmesh::cli::keepLargeBlocksOnHeap);
 
   py::class_<PyPoseModel>(m, "_PoseModel")
       .def(py::init<const PyScene&, int>())

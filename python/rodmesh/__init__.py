@@ -41,6 +41,7 @@ __all__ = [
     "load_archive",
     "mesh_surface",
     "grid",
+    "keep_large_blocks_on_heap",
     "version",
 ]
 
@@ -288,6 +289,22 @@ def _printing(callback):
             file=sys.stderr, flush=True)
         return None if callback is None else callback(info)
     return wrapped
+
+
+def keep_large_blocks_on_heap():
+    """Applies the `rodmesh` executable's heap policy to this process.
+
+    glibc maps every large block afresh and unmaps it on free; the
+    factorizations of simulate and optimize allocate and zero their
+    workspaces at every Newton or Ipopt iteration, so each iteration faults
+    those pages in again. After this call large blocks come from the heap
+    and freed memory stays there for reuse (docs/python.md, "Speed"). The
+    policy is process-wide and not undone: memory freed later (by any
+    library, numpy included) is not given back to the system until the
+    process exits. Meant for scripts that run large optimizations, not for
+    long-lived notebooks. Returns True if it took effect (glibc), else False.
+    """
+    return bool(_rodmesh.keep_large_blocks_on_heap())
 
 
 def load_archive(path):

@@ -139,6 +139,52 @@ def test_simulate_matches_the_cli_archive(tmp_path):
     assert cli("inspect", str(saved)).returncode == 0
 
 
+HEAP_PROBE = textwrap.dedent("""
+    import sys
+    import numpy as np
+    import rodmesh
+
+    def heap_bytes():
+        total = 0
+        with open("/proc/self/maps") as f:
+            for line in f:
+                if line.rstrip().endswith("[heap]"):
+                    lo, hi = line.split()[0].split("-")
+                    total += int(hi, 16) - int(lo, 16)
+        return total
+
+    applied = rodmesh.keep_large_blocks_on_heap() if sys.argv[1] == "policy" else None
+    before = heap_bytes()
+    block = np.ones(8 << 20)  # 64 MiB, above glibc's largest mmap threshold
+    grown = heap_bytes() - before
+    del block
+    r = rodmesh.simulate(sys.argv[2])
+    r.save(sys.argv[3])
+    print(applied, grown, heap_bytes() - before)
+""")
+
+
+def test_the_heap_policy_serves_large_blocks_from_the_heap_and_keeps_them(tmp_path):
+    """keep_large_blocks_on_heap: a large block comes from the heap (not a
+    fresh mapping) and stays there after free; results are unchanged."""
+    runs = {}
+    for mode in ("default", "policy"):
+        out = tmp_path / (mode + ".h5")
+        r = subprocess.run([sys.executable, "-c", HEAP_PROBE, mode, CANTILEVER, str(out)], capture_output=True,
+                           text=True, timeout=120, env=dict(os.environ))
+        assert r.returncode == 0, r.stderr
+        applied, grown, kept = r.stdout.split()
+        runs[mode] = (applied, int(grown), int(kept), rodmesh.load_archive(out))
+    # The heap may already have some free space at its top, which the block
+    # takes first: half the block tells heap from mapping.
+    half = (64 << 20) // 2
+    assert runs["default"][1] < half  # without the policy: a mapping of its own
+    assert runs["policy"][0] == "True"
+    assert runs["policy"][1] > half  # with it: the heap grows by the block
+    assert runs["policy"][2] > half  # and keeps it after free
+    assert_same_result(runs["policy"][3], runs["default"][3])
+
+
 def test_simulate_options_are_the_cli_flags(tmp_path):
     s = rodmesh.Scene.load(CANTILEVER)
     message = cli_error("simulate", CANTILEVER, "-o", str(tmp_path / "o.h5"), "--tol", "5")
