@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <limits>
 
 #include "solver/format.hh"
 
@@ -256,8 +257,16 @@ TrustRegionResult minimizeTrustRegion(const TrustRegionProblem& problem, VectorX
     VectorXd gNew;
     if (limit()) return finish(stop);
     bool ok = evaluate(xNew, fNew, nullptr);
-    const double rho = ok ? (f - fNew) / step.predicted : -kInf;
-    if (ok && rho > opt.acceptRatio && fNew < f) {
+    // Near a minimizer both decreases reach the rounding of f, and their
+    // ratio is rounding noise: a step that decreases the model by less than
+    // f's last digits would be rejected at random and the radius collapse
+    // before the gradient test is met. As Conn, Gould and Toint ("Trust-
+    // Region Methods", sec. 17.4.2) advise, both decreases are shifted by
+    // delta = 10 eps max(1, |f|), so that such steps count as the model
+    // predicted and f may rise by rounding only.
+    const double delta = 10 * std::numeric_limits<double>::epsilon() * std::max(1.0, std::abs(f));
+    const double rho = ok ? (f - fNew + delta) / (step.predicted + delta) : -kInf;
+    if (ok && rho > opt.acceptRatio && fNew < f + delta) {
       // The gradient and the products at the probe (its equilibria are the
       // value's).
       ++res.evaluations;

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "model/scene_model.hh"
 #include "solver/equilibrium.hh"
@@ -75,13 +76,23 @@ TEST(ImperfectionSensitivity, AnArchJustBelowItsLimitLoadSnapsUnderIt) {
   const Design d = Design::fromScene(s);
   const int crown = 20;
   // The crown load where the arch snaps through, by bisection: up below it,
-  // inverted above.
+  // inverted above. Within a load step of the critical point the path may
+  // find no equilibrium beyond it that round-off does not decide (a saddle
+  // whose descent is below the energy's last digits): the solve then says
+  // that it lost the path at a critical point, and the arch did not stay up
+  // to that load.
   auto staysUp = [&](double load) {
     Scene t = s;
     t.poses[0].forces[0].force = Vec3(0, 0, -load);
     const SceneModel m(t);
     const SimulationResult r = simulateAll(m, d, NewtonOptions{});
-    EXPECT_TRUE(r.allConverged) << load;
+    if (!r.allConverged) {
+      const std::string& why = r.poses[0].report.message;
+      EXPECT_NE(why.find("the equilibrium path was lost"), std::string::npos) << load << ": " << why;
+      EXPECT_NE(why.find("a limit or bifurcation point"), std::string::npos) << load << ": " << why;
+      EXPECT_GT(r.poses[0].report.loadFactor, 0.99) << load << ": lost near the full load only";
+      return false;
+    }
     return r.poses[0].positions[crown].z() > 0;
   };
   double up = 0.01, down = 10.0;
