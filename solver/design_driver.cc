@@ -148,6 +148,13 @@ class DesignDriver {
   // loading path from rest) lands elsewhere and the candidate was not kept;
   // said when a pose's stiffness at those states has a negative eigenvalue.
   std::string unreachedOptimum(const PhaseTask& task, const PhaseResult& pr, int kept) const;
+  // For a phase solver whose iterates are not equilibria (SAND): empty, or
+  // why the phase's optimum is not its result. Its first candidate is its
+  // final point; when a later one (the best nearly feasible iterate) was
+  // kept and the final point does worse on its own equilibria by more than
+  // round-off, the iterates went on to another branch and came back to a
+  // worse point, and the design kept is no optimum of the phase.
+  std::string optimumWorseThanPassed(const PhaseTask& task, const PhaseResult& pr, int kept) const;
   // Re-solves the best design along the loading path from rest. True when
   // that equilibrium is not the one the optimizer holds (farther than
   // designedEquilibriumTolerance): `path` then holds the loading path's
@@ -480,6 +487,21 @@ std::string DesignDriver::unreachedOptimum(const PhaseTask& task, const PhaseRes
     }
   }
   return "";
+}
+
+std::string DesignDriver::optimumWorseThanPassed(const PhaseTask& task, const PhaseResult& pr, int kept) const {
+  // Relative margin above the polish's round-off, as in unreachedOptimum.
+  constexpr double kMargin = 1e-3;
+  if (kept <= 0 || pr.candidates.empty() || static_cast<int>(pr.candidates[0].states.size()) != model_.numPoses())
+    return "";
+  const PhaseCandidate& end = pr.candidates[0];
+  const Design d = space_.toDesign(end.controls);
+  double f = 0.0;
+  const double rms = objective_.rms(objectiveOfStates(model_, objective_, d, end.states, f));
+  if (!(f > (1.0 + kMargin) * res_.objective)) return "";
+  return "the optimum of " + task.label + " (RMS " + millimetres(rms) +
+         " on its own equilibria) does worse than a design its iterates passed (RMS " + millimetres(res_.rms) +
+         "), which is no optimum of the phase either";
 }
 
 bool DesignDriver::offLoadingPath(const PhaseTask& task, std::vector<PoseState>& path, std::string& note,
@@ -890,7 +912,9 @@ DesignOptimizerResult DesignDriver::run(PhaseSolver& solver) {
     const bool phaseStopped = pr.end == PhaseEnd::Converged || pr.end == PhaseEnd::Stalled ||
                               pr.end == PhaseEnd::PhaseCap || pr.end == PhaseEnd::TargetsMet;
     if (phaseStopped && attempt < 1 && !solver.iteratesAreEquilibria() && !interrupted() && !timeUp()) {
-      if (const std::string why = unreachedOptimum(task, pr, kept); !why.empty()) {
+      std::string why = unreachedOptimum(task, pr, kept);
+      if (why.empty()) why = optimumWorseThanPassed(task, pr, kept);
+      if (!why.empty()) {
         ++attempt;
         retryDiverged = true;
         notes.push_back(why + "; the phase was " + solver.divergedRetry() + retryStart());
