@@ -260,6 +260,46 @@ TEST(DesignDriver, APhaseEndingAtAnUnstableEquilibriumIsRunAgain) {
   }
 }
 
+// A SAND-like phase whose final point (its first candidate) does worse than
+// the best nearly feasible iterate it passed (the second, which the driver
+// keeps): that design is no optimum of the phase, which is run again from
+// it by the method for diverged phases. Not when the final point is the
+// better one, nor for a phase solver whose iterates are equilibria.
+TEST(DesignDriver, APhaseEndingWorseThanAnIterateItPassedIsRunAgain) {
+  Cantilever c;
+  const ControlValues passed = c.thinner(0.7), end = c.thinner(0.9);
+  for (const bool equilibria : {false, true}) {
+    for (const bool endFirst : {true, false}) {
+      ScriptedPhases phases;
+      phases.equilibria = equilibria;
+      phases.script = [&](const PhaseTask& task, PhaseContext&) {
+        PhaseResult r;
+        r.iterations = 4;
+        if (task.attempt == 0) {
+          const ControlValues& first = endFirst ? end : passed;
+          const ControlValues& second = endFirst ? passed : end;
+          r.candidates.push_back({first, c.equilibria(first)});
+          r.candidates.push_back({second, c.equilibria(second)});
+        }
+        return r;
+      };
+      const DesignOptimizerResult r = runDesign(c.model, c.space, driverOptions(), phases);
+      const bool retried = !equilibria && endFirst;
+      ASSERT_EQ(phases.tasks.size(), retried ? 2u : 1u) << equilibria << endFirst << ": " << r.message;
+      EXPECT_TRUE(sameControls(r.controls, passed)) << "the better design is kept either way";
+      if (!retried) {
+        EXPECT_EQ(r.message.find("does worse than a design its iterates passed"), std::string::npos) << r.message;
+        continue;
+      }
+      EXPECT_TRUE(phases.tasks[1].diverged) << "run again by the method for diverged phases";
+      EXPECT_EQ(phases.tasks[1].index, 0) << "the same phase";
+      EXPECT_TRUE(sameControls(phases.tasks[1].controls, passed)) << "from the design kept";
+      EXPECT_NE(r.message.find("the optimum of radii level 2 (RMS "), std::string::npos) << r.message;
+      EXPECT_NE(r.message.find("does worse than a design its iterates passed"), std::string::npos) << r.message;
+    }
+  }
+}
+
 TEST(DesignDriver, AFailedPhaseIsAFailedRunOnlyWithoutABetterDesign) {
   for (const bool improved : {false, true}) {
     Cantilever c;
