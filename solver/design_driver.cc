@@ -464,17 +464,19 @@ int DesignDriver::keepCandidates(const PhaseTask& task, const PhaseResult& pr, i
   return kept;
 }
 
+// Relative margin above the polish's round-off: a kept candidate's own and
+// polished objectives differ in their last digits only (unreachedOptimum,
+// optimumWorseThanPassed).
+constexpr double kOptimumMargin = 1e-3;
+
 std::string DesignDriver::unreachedOptimum(const PhaseTask& task, const PhaseResult& pr, int kept) const {
-  // Relative margin above the polish's round-off: a kept candidate's own
-  // and polished objectives differ in their last digits only.
-  constexpr double kMargin = 1e-3;
   for (std::size_t c = 0; c < pr.candidates.size(); ++c) {
     const PhaseCandidate& cand = pr.candidates[c];
     if (static_cast<int>(c) == kept || static_cast<int>(cand.states.size()) != model_.numPoses()) continue;
     const Design d = space_.toDesign(cand.controls);
     double f = 0.0;
     const double rms = objective_.rms(objectiveOfStates(model_, objective_, d, cand.states, f));
-    if (!(f < (1.0 - kMargin) * res_.objective)) continue;
+    if (!(f < (1.0 - kOptimumMargin) * res_.objective)) continue;
     // Only an optimum shown unstable: a polish can also fail for want of
     // Newton iterations, which says nothing about the design.
     for (int k = 0; k < model_.numPoses(); ++k) {
@@ -490,15 +492,13 @@ std::string DesignDriver::unreachedOptimum(const PhaseTask& task, const PhaseRes
 }
 
 std::string DesignDriver::optimumWorseThanPassed(const PhaseTask& task, const PhaseResult& pr, int kept) const {
-  // Relative margin above the polish's round-off, as in unreachedOptimum.
-  constexpr double kMargin = 1e-3;
   if (kept <= 0 || pr.candidates.empty() || static_cast<int>(pr.candidates[0].states.size()) != model_.numPoses())
     return "";
   const PhaseCandidate& end = pr.candidates[0];
   const Design d = space_.toDesign(end.controls);
   double f = 0.0;
   const double rms = objective_.rms(objectiveOfStates(model_, objective_, d, end.states, f));
-  if (!(f > (1.0 + kMargin) * res_.objective)) return "";
+  if (!(f > (1.0 + kOptimumMargin) * res_.objective)) return "";
   return "the optimum of " + task.label + " (RMS " + millimetres(rms) +
          " on its own equilibria) does worse than a design its iterates passed (RMS " + millimetres(res_.rms) +
          "), which is no optimum of the phase either";

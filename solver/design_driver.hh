@@ -78,7 +78,11 @@ struct PhaseResult {
   int iterations = 0, evaluations = 0, failedEvaluations = 0, equilibriumRestarts = 0;
   double evaluationSeconds = 0.0;
   // Best first: the driver polishes each, and keeps the first whose
-  // objective did not rise and every later one that is lower still.
+  // objective did not rise and every later one that is lower still. A phase
+  // solver whose iterates are not equilibria (SAND) puts its final point
+  // first, when it has one, and the best nearly feasible iterate after it:
+  // a later candidate kept then says the final point did worse
+  // (DesignDriver::optimumWorseThanPassed).
   std::vector<PhaseCandidate> candidates;
 };
 

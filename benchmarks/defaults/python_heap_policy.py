@@ -1,3 +1,12 @@
+#!/usr/bin/python3
+"""The heap policy from Python: one default optimize run, timed with rusage.
+
+    PYTHONPATH=build/python /usr/bin/python3 benchmarks/defaults/python_heap_policy.py default|policy SCENE
+
+`policy` calls rodmesh.keep_large_blocks_on_heap() first. Prints wall, user
+and system time, minor page faults, peak RSS, status, RMS and the history's
+length (rows of benchmarks/defaults/results_2026-12-02_s28.md).
+"""
 import resource, sys, time
 import rodmesh
 applied = rodmesh.keep_large_blocks_on_heap() if sys.argv[1] == "policy" else None

@@ -17,6 +17,7 @@ running the optimizer again.
 The scenes come from benchmarks/other_model/make_other_model.py.
 """
 import argparse
+import copy
 import json
 import os
 import subprocess
@@ -43,7 +44,7 @@ def row(rodmesh, scene, work, method, weights, reuse):
     if len(weights) != len(names):
         sys.exit("pose_tradeoff: %d weights for %d poses" % (len(weights), len(names)))
     tag = "%s_w%s" % (method, "_".join("%g" % w for w in weights))
-    s = json.loads(json.dumps(scene))
+    s = copy.deepcopy(scene)
     for p, w in zip(s["poses"], weights):
         p["weight"] = w
     path = os.path.join(work, tag + ".json")
@@ -53,12 +54,12 @@ def row(rodmesh, scene, work, method, weights, reuse):
     wall = float("nan")
     if not (reuse and os.path.exists(out)):
         t = time.time()
-        code = run([rodmesh, "optimize", path, "-o", out, "--method", method, "-q"])
+        run([rodmesh, "optimize", path, "-o", out, "--method", method, "-q"])
         wall = time.time() - t
     with h5py.File(out, "r") as f:
         status = f.attrs["status"]
         status = status.decode() if isinstance(status, bytes) else str(status)
-        resim = json.loads(json.dumps(scene))
+        resim = copy.deepcopy(scene)
         resim.pop("design", None)
         resim.pop("radius", None)
         resim["vertices"] = f["rest/positions"][()].tolist()
